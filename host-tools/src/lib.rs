@@ -1,0 +1,8 @@
+//! # orbfix-host
+//!
+//! The std side of orbfix: the procedural lunar world the flight core is trained and judged
+//! on, its renderer, datasets, training, quantization, evaluation, figures and the flight
+//! budget. Uses the `orbfix` core as a library; frames and units are those of the core
+//! (`docs/frames.md`).
+
+pub mod world;

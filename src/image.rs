@@ -1,0 +1,215 @@
+//! Borrowed 8-bit grayscale image views (row-major, explicit stride in bytes).
+//!
+//! Frames and maps may live in external memory: views borrow, they never copy.
+
+/// Errors building an image view.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ImageError {
+    /// Width or height is zero.
+    ZeroSize,
+    /// The stride (bytes per row) is smaller than the width.
+    StrideTooSmall {
+        /// Requested stride, bytes.
+        stride: usize,
+        /// Image width, pixels.
+        width: usize,
+    },
+    /// The buffer is shorter than `stride * (height - 1) + width` bytes.
+    BufferTooSmall {
+        /// Bytes needed.
+        needed: usize,
+        /// Bytes given.
+        got: usize,
+    },
+}
+
+fn check(len: usize, width: usize, height: usize, stride: usize) -> Result<(), ImageError> {
+    if width == 0 || height == 0 {
+        return Err(ImageError::ZeroSize);
+    }
+    if stride < width {
+        return Err(ImageError::StrideTooSmall { stride, width });
+    }
+    let needed = stride
+        .checked_mul(height - 1)
+        .and_then(|n| n.checked_add(width))
+        .unwrap_or(usize::MAX);
+    if len < needed {
+        return Err(ImageError::BufferTooSmall { needed, got: len });
+    }
+    Ok(())
+}
+
+/// A borrowed, read-only 8-bit grayscale image.
+#[derive(Clone, Copy, Debug)]
+pub struct ImageView<'a> {
+    data: &'a [u8],
+    width: usize,
+    height: usize,
+    stride: usize,
+}
+
+impl<'a> ImageView<'a> {
+    /// A tightly packed image (`stride == width`).
+    pub fn new(data: &'a [u8], width: usize, height: usize) -> Result<Self, ImageError> {
+        Self::with_stride(data, width, height, width)
+    }
+
+    /// An image whose rows start `stride` bytes apart.
+    pub fn with_stride(
+        data: &'a [u8],
+        width: usize,
+        height: usize,
+        stride: usize,
+    ) -> Result<Self, ImageError> {
+        check(data.len(), width, height, stride)?;
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+        })
+    }
+
+    /// Width, pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height, pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Bytes between the starts of two rows.
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// The underlying buffer (rows `stride` apart).
+    pub fn data(&self) -> &'a [u8] {
+        self.data
+    }
+
+    /// Row `y` (exactly `width` bytes), or `None` outside the image.
+    pub fn row(&self, y: usize) -> Option<&'a [u8]> {
+        if y >= self.height {
+            return None;
+        }
+        let start = y * self.stride;
+        self.data.get(start..start + self.width)
+    }
+
+    /// Pixel at column `x`, row `y`, or `None` outside the image.
+    pub fn get(&self, x: usize, y: usize) -> Option<u8> {
+        if x >= self.width {
+            return None;
+        }
+        self.row(y).and_then(|r| r.get(x).copied())
+    }
+
+    /// A rectangular sub-view (shares the buffer), or `None` if it does not fit.
+    pub fn sub(&self, x: usize, y: usize, width: usize, height: usize) -> Option<ImageView<'a>> {
+        if width == 0 || height == 0 || x + width > self.width || y + height > self.height {
+            return None;
+        }
+        let start = y * self.stride + x;
+        let data = self.data.get(start..)?;
+        ImageView::with_stride(data, width, height, self.stride).ok()
+    }
+}
+
+/// A borrowed, writable 8-bit grayscale image.
+#[derive(Debug)]
+pub struct ImageViewMut<'a> {
+    data: &'a mut [u8],
+    width: usize,
+    height: usize,
+    stride: usize,
+}
+
+impl<'a> ImageViewMut<'a> {
+    /// A tightly packed image (`stride == width`).
+    pub fn new(data: &'a mut [u8], width: usize, height: usize) -> Result<Self, ImageError> {
+        check(data.len(), width, height, width)?;
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride: width,
+        })
+    }
+
+    /// Width, pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height, pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Bytes between the starts of two rows.
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// Read-only view of the same pixels.
+    pub fn as_view(&self) -> ImageView<'_> {
+        ImageView {
+            data: self.data,
+            width: self.width,
+            height: self.height,
+            stride: self.stride,
+        }
+    }
+
+    /// Mutable row `y`, or `None` outside the image.
+    pub fn row_mut(&mut self, y: usize) -> Option<&mut [u8]> {
+        if y >= self.height {
+            return None;
+        }
+        let start = y * self.stride;
+        self.data.get_mut(start..start + self.width)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejects_bad_sizes() {
+        let buf = [0u8; 12];
+        assert_eq!(ImageView::new(&buf, 0, 3).err(), Some(ImageError::ZeroSize));
+        assert_eq!(
+            ImageView::new(&buf, 4, 4).err(),
+            Some(ImageError::BufferTooSmall {
+                needed: 16,
+                got: 12
+            })
+        );
+        assert!(matches!(
+            ImageView::with_stride(&buf, 4, 3, 3),
+            Err(ImageError::StrideTooSmall { .. })
+        ));
+    }
+
+    #[test]
+    fn rows_pixels_and_subviews() {
+        let mut buf = [0u8; 12];
+        for (i, b) in buf.iter_mut().enumerate() {
+            *b = i as u8;
+        }
+        let v = ImageView::new(&buf, 4, 3).unwrap();
+        assert_eq!(v.row(1), Some(&buf[4..8]));
+        assert_eq!(v.get(3, 2), Some(11));
+        assert_eq!(v.get(4, 0), None);
+        let s = v.sub(1, 1, 2, 2).unwrap();
+        assert_eq!(s.get(0, 0), Some(5));
+        assert_eq!(s.get(1, 1), Some(10));
+        assert!(v.sub(3, 0, 2, 1).is_none());
+    }
+}

@@ -1,0 +1,24 @@
+//! # orbfix flight core
+//!
+//! Absolute position fix for a planetary rover from its own four ground views and an
+//! orbital map, in `no_std` with no heap: every buffer is caller-provided or static with a
+//! size known at compile time.
+//!
+//! Frames and units are fixed once for the whole project (see `docs/frames.md`):
+//! - world: `x` east, `y` north, `z` up, metres;
+//! - heading: degrees clockwise from north (0 = facing north, 90 = facing east);
+//! - rasters: north-up, row 0 at the north edge, column 0 at the west edge, pixel
+//!   `(col, row)` covering `[col, col + 1) x [row, row + 1)`, its centre at `+0.5`.
+//!
+//! Modules, one concept each:
+//! - [`image`]: borrowed 8-bit grayscale image views;
+//! - [`geo`]: georeference of north-up rasters;
+//! - [`camera`]: pinhole camera model of the rover's four views.
+#![no_std]
+#![deny(unsafe_op_in_unsafe_fn)]
+#![warn(missing_docs)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+pub mod camera;
+pub mod geo;
+pub mod image;
