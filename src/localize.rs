@@ -121,6 +121,10 @@ pub struct Fix {
     /// Best candidates, best first (refined ones by fine score, then the rest by coarse
     /// score).
     pub candidates: heapless::Vec<Candidate, MAX_CANDIDATES>,
+    /// The coarse response grid (`step` = coarse factor, input pixels); after the call its
+    /// scores are in `floats[..coarse_grid.len()]` (row-major, position `(c, r)` = template
+    /// top-left at input pixel `(c * step, r * step)`).
+    pub coarse_grid: Grid,
     /// Operations spent in the coarse pass (downsampling included).
     pub ops_coarse: OpCounts,
     /// Operations spent in the refinement pass (downsampling included).
@@ -578,6 +582,7 @@ pub fn localize<M: Matcher + ?Sized>(
         second_score: s2,
         on_border,
         candidates: cands,
+        coarse_grid: Grid { step: l.cf, ..grid },
         ops_coarse: ops_c,
         ops_fine: ops_f,
     })
