@@ -336,3 +336,31 @@ where
         .with_context(|| format!("cannot encode {}", path.display()))?;
     write_atomic(path, buf.get_ref())
 }
+
+/// The JSON description of a localization (fix, confidence, candidates, operation counts).
+pub fn describe_fix(loc: &Localization) -> serde_json::Value {
+    let f = &loc.fix;
+    let mut order: Vec<usize> = (0..loc.window_scores.len()).collect();
+    order.sort_by(|&a, &b| loc.window_scores[b].total_cmp(&loc.window_scores[a]));
+    serde_json::json!({
+        "fix_m": [f.x_m, f.y_m],
+        "score": f.score,
+        "confidence": f.confidence,
+        "peak_score": f.peak_score,
+        "second_score": f.second_score,
+        "on_border": f.on_border,
+        "candidates": f.candidates.iter().map(|c| serde_json::json!({
+            "x_m": c.x_m, "y_m": c.y_m, "score": c.score, "refined": c.refined
+        })).collect::<Vec<_>>(),
+        "best_windows": order.iter().take(10).map(|&i| serde_json::json!({
+            "index": i, "col": i % loc.window_grid.cols, "row": i / loc.window_grid.cols,
+            "score": loc.window_scores[i]
+        })).collect::<Vec<_>>(),
+        "ops": {"coarse": ops_json(&f.ops_coarse), "fine": ops_json(&f.ops_fine), "windows": ops_json(&loc.window_ops)},
+        "time_s": {"dense": loc.dense_s, "windows": loc.windows_s},
+    })
+}
+
+fn ops_json(o: &OpCounts) -> serde_json::Value {
+    serde_json::json!({"macs": o.macs, "windows": o.windows, "downsample_px": o.downsample_px})
+}
