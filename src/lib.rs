@@ -14,11 +14,16 @@
 //! - [`image`]: borrowed 8-bit grayscale image views;
 //! - [`geo`]: georeference of north-up rasters;
 //! - [`camera`]: pinhole camera model of the rover's four views.
+//! - [`reproject`]: integer lookup-table reprojection of the four views to a top-down grid.
 #![no_std]
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
 
 pub mod camera;
 pub mod geo;
 pub mod image;
+pub mod reproject;
