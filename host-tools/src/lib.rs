@@ -5,9 +5,6 @@
 //! budget. Uses the `orbfix` core as a library; frames and units are those of the core
 //! (`docs/frames.md`).
 
-<<<<<<< HEAD
 pub mod eval;
-=======
 pub mod reproject_ref;
->>>>>>> reproject
 pub mod world;
