@@ -103,7 +103,7 @@ pub struct EvalReport {
     /// Mean seconds of one window search.
     pub mean_windows_s: f64,
     /// Operation counts of the last query: coarse, fine, windows.
-    pub ops: BTreeMap<String, OpCounts>,
+    pub ops: BTreeMap<String, serde_json::Value>,
     /// Settings.
     pub settings: serde_json::Value,
     /// Every query.
@@ -165,8 +165,12 @@ fn run_query(
     // Pair windows: the truth's window and a random one at least 50 m away.
     let (tc, tr) = map.geo.to_pixel(q.x_m as f32, q.y_m as f32);
     let half = n as f64 / 2.0;
-    let tcol = (tc as f64 - half).round().clamp(0.0, (map.width - n) as f64) as usize;
-    let trow = (tr as f64 - half).round().clamp(0.0, (map.height - n) as f64) as usize;
+    let tcol = (tc as f64 - half)
+        .round()
+        .clamp(0.0, (map.width - n) as f64) as usize;
+    let trow = (tr as f64 - half)
+        .round()
+        .clamp(0.0, (map.height - n) as f64) as usize;
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed.wrapping_mul(1000).wrapping_add(q.id as u64));
     let away = 50.0 / map.geo.m_per_px as f64;
     let (ncol, nrow) = loop {
@@ -297,9 +301,16 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
         let share = |d: f64| errs.iter().filter(|&&e| e <= d).count() as f64 / errs.len() as f64;
         let mut ops = BTreeMap::new();
         if let Some(ex) = examples.first().and_then(|e| e.locs.get(k)) {
-            ops.insert("coarse".to_string(), ex.fix.ops_coarse);
-            ops.insert("fine".to_string(), ex.fix.ops_fine);
-            ops.insert("windows".to_string(), ex.window_ops);
+            for (k, o) in [
+                ("coarse", ex.fix.ops_coarse),
+                ("fine", ex.fix.ops_fine),
+                ("windows", ex.window_ops),
+            ] {
+                ops.insert(
+                    k.to_string(),
+                    serde_json::json!({"macs": o.macs, "windows": o.windows, "downsample_px": o.downsample_px}),
+                );
+            }
         }
         reports.push(EvalReport {
             matcher: name.clone(),
@@ -320,10 +331,16 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
             pairs: pair_stats(&pos, &neg),
             border_rejections: rs.iter().filter(|r| r.on_border).count(),
             mean_confidence_correct: mean(
-                rs.iter().filter(|r| r.error_m <= 5.0).map(|r| r.confidence).collect(),
+                rs.iter()
+                    .filter(|r| r.error_m <= 5.0)
+                    .map(|r| r.confidence)
+                    .collect(),
             ),
             mean_confidence_wrong: mean(
-                rs.iter().filter(|r| r.error_m > 5.0).map(|r| r.confidence).collect(),
+                rs.iter()
+                    .filter(|r| r.error_m > 5.0)
+                    .map(|r| r.confidence)
+                    .collect(),
             ),
             mean_dense_s: mean(rs.iter().map(|r| r.dense_s).collect()),
             mean_windows_s: mean(rs.iter().map(|r| r.windows_s).collect()),
