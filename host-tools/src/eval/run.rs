@@ -67,6 +67,8 @@ pub struct QueryResult {
     pub dense_s: f64,
     /// Seconds of the window search.
     pub windows_s: f64,
+    /// Per-pixel accumulates (MACs) of the coarse pass, the fine pass and the window search.
+    pub macs: [u64; 3],
 }
 
 /// The report of one matcher under one condition.
@@ -102,8 +104,8 @@ pub struct EvalReport {
     pub mean_dense_s: f64,
     /// Mean seconds of one window search.
     pub mean_windows_s: f64,
-    /// Operation counts of the last query: coarse, fine, windows.
-    pub ops: BTreeMap<String, serde_json::Value>,
+    /// Mean per-pixel accumulates per query: coarse, fine, windows.
+    pub ops: BTreeMap<String, f64>,
     /// Settings.
     pub settings: serde_json::Value,
     /// Every query.
@@ -211,6 +213,11 @@ fn run_query(
             coverage,
             dense_s: loc.dense_s,
             windows_s: loc.windows_s,
+            macs: [
+                loc.fix.ops_coarse.macs,
+                loc.fix.ops_fine.macs,
+                loc.window_ops.macs,
+            ],
         });
         locs.push(loc);
     }
@@ -300,17 +307,9 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
         };
         let share = |d: f64| errs.iter().filter(|&&e| e <= d).count() as f64 / errs.len() as f64;
         let mut ops = BTreeMap::new();
-        if let Some(ex) = examples.first().and_then(|e| e.locs.get(k)) {
-            for (k, o) in [
-                ("coarse", ex.fix.ops_coarse),
-                ("fine", ex.fix.ops_fine),
-                ("windows", ex.window_ops),
-            ] {
-                ops.insert(
-                    k.to_string(),
-                    serde_json::json!({"macs": o.macs, "windows": o.windows, "downsample_px": o.downsample_px}),
-                );
-            }
+        for (i, stage) in ["coarse", "fine", "windows"].iter().enumerate() {
+            let m: Vec<f64> = rs.iter().map(|r| r.macs[i] as f64).collect();
+            ops.insert(format!("{stage}_macs_mean"), mean(m));
         }
         reports.push(EvalReport {
             matcher: name.clone(),
