@@ -140,6 +140,28 @@ fn ray_directions(id: u64) -> [(f64, f64); RAYS] {
     out
 }
 
+/// Squared distance (m^2) from `(cx, cy)` to the rectangle `[x0, y0, x1, y1]`; for a
+/// point rectangle exactly `(x - cx)^2 + (y - cy)^2`.
+#[inline]
+pub(crate) fn rect_dist2(rect: [f64; 4], cx: f64, cy: f64) -> f64 {
+    let [x0, y0, x1, y1] = rect;
+    let dx = if cx < x0 {
+        x0 - cx
+    } else if cx > x1 {
+        cx - x1
+    } else {
+        0.0
+    };
+    let dy = if cy < y0 {
+        y0 - cy
+    } else if cy > y1 {
+        cy - y1
+    } else {
+        0.0
+    };
+    dx * dx + dy * dy
+}
+
 /// Polynomial smooth minimum of width `k` (Quilez); `min(a, b)` when `k <= 0`.
 #[inline]
 fn smooth_min(a: f64, b: f64, k: f64) -> f64 {
@@ -328,27 +350,23 @@ impl CraterField {
         }
     }
 
-    /// Calls `f(crater, dx, dy, r2)` for every crater whose ejecta blanket covers `(x, y)`.
-    /// With `fresh_only`, skips craters that are not fresh (albedo-only queries).
+    /// Calls `f(crater)` for every crater whose ejecta blanket reaches into the rectangle
+    /// `[x0, x1] x [y0, y1]` (metres; a point when `x0 == x1` and `y0 == y1`), in a fixed
+    /// order (class, cell row, cell column, index). With `fresh_only`, skips craters that are
+    /// not fresh (albedo-only queries).
     #[inline]
-    pub(crate) fn visit(
-        &self,
-        x: f64,
-        y: f64,
-        fresh_only: bool,
-        mut f: impl FnMut(&Crater, f64, f64, f64),
-    ) {
+    pub(crate) fn visit_rect(&self, rect: [f64; 4], fresh_only: bool, mut f: impl FnMut(&Crater)) {
+        let [x0, y0, x1, y1] = rect;
         for cls in &self.classes {
             let reach2 = cls.reach * cls.reach;
-            let ix0 = cell_of(x - cls.reach, cls.cell);
-            let ix1 = cell_of(x + cls.reach, cls.cell);
-            let iy0 = cell_of(y - cls.reach, cls.cell);
-            let iy1 = cell_of(y + cls.reach, cls.cell);
+            let ix0 = cell_of(x0 - cls.reach, cls.cell);
+            let ix1 = cell_of(x1 + cls.reach, cls.cell);
+            let iy0 = cell_of(y0 - cls.reach, cls.cell);
+            let iy1 = cell_of(y1 + cls.reach, cls.cell);
             for iy in iy0..=iy1 {
                 for ix in ix0..=ix1 {
                     self.for_cell(cls, ix, iy, |cx, cy, shape, id| {
-                        let (dx, dy) = (x - cx, y - cy);
-                        let r2 = dx * dx + dy * dy;
+                        let r2 = rect_dist2(rect, cx, cy);
                         if r2 >= reach2 {
                             return;
                         }
@@ -361,7 +379,7 @@ impl CraterField {
                         let c = self.make(cls, cx, cy, shape, id);
                         let e = c.ejecta_extent_radii * c.radius_m();
                         if r2 < e * e {
-                            f(&c, dx, dy, r2);
+                            f(&c);
                         }
                     });
                 }

@@ -460,17 +460,21 @@ impl World {
         if n == 0 {
             return grid;
         }
+        let xs: Vec<f64> = (0..nx)
+            .map(|c| origin_x_m + (c as f64 + 0.5) * m_per_px)
+            .collect();
         grid.height_m
-            .par_chunks_mut(nx)
-            .zip(grid.albedo.par_chunks_mut(nx))
+            .par_chunks_mut(nx * TILE)
+            .zip(grid.albedo.par_chunks_mut(nx * TILE))
             .enumerate()
-            .for_each(|(row, (hs, als))| {
-                let y = origin_y_m - (row as f64 + 0.5) * m_per_px;
-                for (col, (h, a)) in hs.iter_mut().zip(als.iter_mut()).enumerate() {
-                    let x = origin_x_m + (col as f64 + 0.5) * m_per_px;
-                    let (hh, aa) = self.eval(x, y, true, true);
-                    *h = hh as f32;
-                    *a = aa as f32;
+            .for_each(|(band, (hs, als))| {
+                let rows = hs.len() / nx;
+                let ys: Vec<f64> = (0..rows)
+                    .map(|r| origin_y_m - ((band * TILE + r) as f64 + 0.5) * m_per_px)
+                    .collect();
+                let mut items = Vec::new();
+                for (t, xt) in xs.chunks(TILE).enumerate() {
+                    self.fill_tile(xt, &ys, &mut items, hs, als, nx, t * TILE);
                 }
             });
         grid
@@ -536,6 +540,36 @@ impl World {
         self.craters.max_reach()
     }
 
+    /// Calls `f` for every crater and boulder that reaches into `rect` (`[x0, y0, x1, y1]`
+    /// metres), in the one fixed order in which their contributions are summed.
+    #[inline]
+    fn features(&self, rect: [f64; 4], fresh_only: bool, mut f: impl FnMut(Feature<'_>)) {
+        let rocks = &self.rocks;
+        rocks.visit_rect(rect, |r| f(Feature::Rock(r)));
+        self.craters.visit_rect(rect, fresh_only, |c| {
+            f(Feature::Crater(c));
+            if rocks.crater_has_rocks(c) {
+                rocks.visit_crater_rect(c, rect, |r| f(Feature::Rock(r)));
+            }
+        });
+    }
+
+    /// The sum before features: noise relief and regolith albedo.
+    #[inline]
+    fn base(&self, x: f64, y: f64, relief: bool, want_a: bool) -> Acc {
+        Acc {
+            h: if relief { self.relief.at(x, y) } else { 0.0 },
+            a: if want_a {
+                self.cfg.albedo_mean + self.albedo_regional.at(x, y) + self.albedo_fine.at(x, y)
+            } else {
+                0.0
+            },
+            relief,
+            want_a,
+            boost: self.cfg.fresh_crater_albedo_boost,
+        }
+    }
+
     #[inline]
     fn eval(&self, x: f64, y: f64, want_h: bool, want_a: bool) -> (f64, f64) {
         if !(x.is_finite() && y.is_finite()) {
@@ -545,31 +579,85 @@ impl World {
         if !relief && !want_a {
             return (0.0, 0.0);
         }
-        let mut acc = Acc {
-            h: if relief { self.relief.at(x, y) } else { 0.0 },
-            a: if want_a {
-                self.cfg.albedo_mean + self.albedo_regional.at(x, y) + self.albedo_fine.at(x, y)
-            } else {
-                0.0
-            },
-            relief,
-            want_a,
+        let mut acc = self.base(x, y, relief, want_a);
+        self.features([x, y, x, y], !relief, |f| acc.add(f, x, y));
+        acc.finish()
+    }
+
+    /// Fills one tile of a grid (pixel centres `xs` x `ys`, written at column `col0` of rows
+    /// of `stride` pixels): gathers the features reaching the tile once, then sums them per
+    /// pixel in the same order as [`World::eval`], so the results are identical.
+    #[allow(clippy::too_many_arguments)]
+    fn fill_tile(
+        &self,
+        xs: &[f64],
+        ys: &[f64],
+        items: &mut Vec<Item>,
+        hs: &mut [f32],
+        als: &mut [f32],
+        stride: usize,
+        col0: usize,
+    ) {
+        let relief = self.cfg.relief;
+        let (Some(&xa), Some(&xb), Some(&ya), Some(&yb)) =
+            (xs.first(), xs.last(), ys.first(), ys.last())
+        else {
+            return;
         };
-        let boost = self.cfg.fresh_crater_albedo_boost;
-        let rocks = &self.rocks;
-        rocks.visit(x, y, |r, r2| acc.rock(r, r2));
-        self.craters.visit(x, y, !relief, |c, dx, dy, r2| {
-            if relief {
-                acc.h += c.height_at(r2);
+        let finite = xa.is_finite() && xb.is_finite() && ya.is_finite() && yb.is_finite();
+        if finite {
+            let rect = [xa.min(xb), ya.min(yb), xa.max(xb), ya.max(yb)];
+            items.clear();
+            self.features(rect, !relief, |f| {
+                items.push(match f {
+                    Feature::Crater(c) => Item::Crater(*c),
+                    Feature::Rock(r) => Item::Rock(*r),
+                })
+            });
+        }
+        for (r, &y) in ys.iter().enumerate() {
+            for (c, &x) in xs.iter().enumerate() {
+                let (h, a) = if finite && x.is_finite() && y.is_finite() {
+                    let mut acc = self.base(x, y, relief, true);
+                    for it in items.iter() {
+                        acc.add(it.as_feature(), x, y);
+                    }
+                    acc.finish()
+                } else {
+                    self.eval(x, y, true, true)
+                };
+                let k = r * stride + col0 + c;
+                hs[k] = h as f32;
+                als[k] = a as f32;
             }
-            if want_a {
-                acc.a += c.albedo_at(dx, dy, r2, boost);
-            }
-            if rocks.crater_has_rocks(c) {
-                rocks.visit_crater(c, x, y, |r, rr2| acc.rock(r, rr2));
-            }
-        });
-        (acc.h, acc.a.clamp(0.0, 1.0))
+        }
+    }
+}
+
+/// Side of the tiles `sample_grid` gathers features for, pixels.
+const TILE: usize = 16;
+
+/// A feature reaching a query, borrowed.
+#[derive(Clone, Copy)]
+enum Feature<'a> {
+    Crater(&'a Crater),
+    Rock(&'a Rock),
+}
+
+/// A feature reaching a tile, owned.
+#[derive(Clone, Copy)]
+enum Item {
+    Crater(Crater),
+    Rock(Rock),
+}
+
+impl Item {
+    #[inline]
+    fn as_feature(&self) -> Feature<'_> {
+        match self {
+            Item::Crater(c) => Feature::Crater(c),
+            Item::Rock(r) => Feature::Rock(r),
+        }
     }
 }
 
@@ -579,17 +667,46 @@ struct Acc {
     a: f64,
     relief: bool,
     want_a: bool,
+    boost: f64,
 }
 
 impl Acc {
+    /// Adds the contribution of `f` at `(x, y)` metres (nothing if `f` does not cover it).
     #[inline]
-    fn rock(&mut self, r: &Rock, r2: f64) {
-        if self.relief {
-            self.h += r.height_at(r2);
+    fn add(&mut self, f: Feature<'_>, x: f64, y: f64) {
+        match f {
+            Feature::Crater(c) => {
+                let (dx, dy) = (x - c.x_m, y - c.y_m);
+                let r2 = dx * dx + dy * dy;
+                let e = c.ejecta_extent_radii * c.radius_m();
+                if r2 < e * e {
+                    if self.relief {
+                        self.h += c.height_at(r2);
+                    }
+                    if self.want_a {
+                        self.a += c.albedo_at(dx, dy, r2, self.boost);
+                    }
+                }
+            }
+            Feature::Rock(r) => {
+                let (dx, dy) = (x - r.x_m, y - r.y_m);
+                let r2 = dx * dx + dy * dy;
+                let rr = 0.5 * r.diameter_m;
+                if r2 < rr * rr {
+                    if self.relief {
+                        self.h += r.height_at(r2);
+                    }
+                    if self.want_a {
+                        self.a += r.albedo_boost;
+                    }
+                }
+            }
         }
-        if self.want_a {
-            self.a += r.albedo_boost;
-        }
+    }
+
+    #[inline]
+    fn finish(&self) -> (f64, f64) {
+        (self.h, self.a.clamp(0.0, 1.0))
     }
 }
 

@@ -7,7 +7,9 @@
 //! carry their own rock layers, keyed by the crater's id, thinning out as `rho^-3` beyond
 //! the rim.
 
-use super::craters::{octave_bins, poisson_cdf, poisson_draw, power_law_diameter, Crater};
+use super::craters::{
+    octave_bins, poisson_cdf, poisson_draw, power_law_diameter, rect_dist2, Crater,
+};
 use super::hash::{cell_hash, cell_of, layer_key, mix64, Rng};
 use super::WorldConfig;
 
@@ -115,22 +117,22 @@ impl RockField {
         }
     }
 
-    /// Calls `f(rock, r2)` for every background rock covering `(x, y)`.
+    /// Calls `f(rock)` for every background rock whose footprint reaches into `rect`
+    /// (`[x0, y0, x1, y1]` metres), in a fixed order.
     #[inline]
-    pub(crate) fn visit(&self, x: f64, y: f64, mut f: impl FnMut(&Rock, f64)) {
+    pub(crate) fn visit_rect(&self, rect: [f64; 4], mut f: impl FnMut(&Rock)) {
+        let [x0, y0, x1, y1] = rect;
         for cls in &self.classes {
             let reach = 0.5 * cls.d_max;
-            for iy in cell_of(y - reach, cls.cell)..=cell_of(y + reach, cls.cell) {
-                for ix in cell_of(x - reach, cls.cell)..=cell_of(x + reach, cls.cell) {
+            for iy in cell_of(y0 - reach, cls.cell)..=cell_of(y1 + reach, cls.cell) {
+                for ix in cell_of(x0 - reach, cls.cell)..=cell_of(x1 + reach, cls.cell) {
                     let mut rng = Rng::new(cell_hash(cls.key, ix, iy));
                     let n = poisson_draw(&cls.cdf_background, rng.f64());
                     for _ in 0..n {
                         let r = self.make(cls, ix, iy, &mut rng);
-                        let (dx, dy) = (x - r.x_m, y - r.y_m);
-                        let r2 = dx * dx + dy * dy;
                         let rr = 0.5 * r.diameter_m;
-                        if r2 < rr * rr {
-                            f(&r, r2);
+                        if rect_dist2(rect, r.x_m, r.y_m) < rr * rr {
+                            f(&r);
                         }
                     }
                 }
@@ -144,11 +146,12 @@ impl RockField {
         c.freshness > 0.0 && c.diameter_m >= self.fresh_d_min && !self.classes.is_empty()
     }
 
-    /// Calls `f(rock, r2)` for every boulder of fresh crater `c` covering `(x, y)`. The
-    /// boulders lie wholly inside the crater's ejecta blanket, so only points the crater
-    /// covers need asking.
+    /// Calls `f(rock)` for every boulder of fresh crater `c` whose footprint reaches into
+    /// `rect`. The boulders lie wholly inside the crater's ejecta blanket, so a point a
+    /// boulder covers is covered by the crater too.
     #[inline]
-    pub(crate) fn visit_crater(&self, c: &Crater, x: f64, y: f64, mut f: impl FnMut(&Rock, f64)) {
+    pub(crate) fn visit_crater_rect(&self, c: &Crater, rect: [f64; 4], mut f: impl FnMut(&Rock)) {
+        let [x0, y0, x1, y1] = rect;
         let rc = c.radius_m();
         let outer = c.ejecta_extent_radii * rc - self.max_radius;
         if outer <= 0.0 {
@@ -157,17 +160,15 @@ impl RockField {
         for (k, cls) in self.classes.iter().enumerate() {
             let key = mix64(c.id ^ layer_key(FRESH_ROCK_LAYER, k as u64));
             let reach = 0.5 * cls.d_max;
-            for iy in cell_of(y - reach, cls.cell)..=cell_of(y + reach, cls.cell) {
-                for ix in cell_of(x - reach, cls.cell)..=cell_of(x + reach, cls.cell) {
+            for iy in cell_of(y0 - reach, cls.cell)..=cell_of(y1 + reach, cls.cell) {
+                for ix in cell_of(x0 - reach, cls.cell)..=cell_of(x1 + reach, cls.cell) {
                     let mut rng = Rng::new(cell_hash(key, ix, iy));
                     let n = poisson_draw(&cls.cdf_fresh, rng.f64());
                     for _ in 0..n {
                         let r = self.make(cls, ix, iy, &mut rng);
                         let keep = rng.f64();
-                        let (dx, dy) = (x - r.x_m, y - r.y_m);
-                        let r2 = dx * dx + dy * dy;
                         let rr = 0.5 * r.diameter_m;
-                        if r2 >= rr * rr {
+                        if rect_dist2(rect, r.x_m, r.y_m) >= rr * rr {
                             continue;
                         }
                         let (ex, ey) = (r.x_m - c.x_m, r.y_m - c.y_m);
@@ -180,7 +181,7 @@ impl RockField {
                         if rho2 > 1.0 && keep * rho2 * rho2.sqrt() >= 1.0 {
                             continue;
                         }
-                        f(&r, r2);
+                        f(&r);
                     }
                 }
             }
