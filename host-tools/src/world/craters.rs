@@ -140,6 +140,18 @@ fn ray_directions(id: u64) -> [(f64, f64); RAYS] {
     out
 }
 
+/// Diameter and degradation draws of crater `i` of the cell with hash `h`.
+#[inline]
+fn shape_of(h: u64, i: u64) -> u64 {
+    mix64(h ^ (i + 1).wrapping_mul(0xd1b5_4a32_d192_ed03))
+}
+
+/// The top 53 bits of `h` as a uniform draw in `[0, 1)`.
+#[inline]
+pub(crate) fn unit_f64(h: u64) -> f64 {
+    (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
 /// Squared distance (m^2) from `(cx, cy)` to the rectangle `[x0, y0, x1, y1]`; for a
 /// point rectangle exactly `(x - cx)^2 + (y - cy)^2`.
 #[inline]
@@ -302,7 +314,7 @@ impl CraterField {
 
     /// The crater from its two draws.
     #[inline]
-    fn make(&self, cls: &CraterClass, cx: f64, cy: f64, shape: u64, id: u64) -> Crater {
+    fn make(&self, cls: &CraterClass, cx: f64, cy: f64, shape: u64) -> Crater {
         let ud = (shape as u32) as f64 * (1.0 / 4_294_967_296.0);
         let deg = ((shape >> 32) as u32) as f64 * (1.0 / 4_294_967_296.0);
         let d = power_law_diameter(ud, cls.d_min, cls.d_max, self.exponent);
@@ -331,22 +343,23 @@ impl CraterField {
             state,
             freshness,
             ejecta_extent_radii: self.extent,
-            id,
+            id: mix64(shape ^ 0x243f_6a88_85a3_08d3),
         }
     }
 
-    /// Calls `f(crater)` for every crater of class `cls` in cell `(ix, iy)`.
+    /// Calls `f(cx, cy, h, i)` for every crater of class `cls` in cell `(ix, iy)`: its
+    /// centre (metres) and what [`shape_of`] needs to draw the rest, lazily (most craters a
+    /// query visits are out of reach and never need it).
     #[inline]
     fn for_cell(&self, cls: &CraterClass, ix: i64, iy: i64, mut f: impl FnMut(f64, f64, u64, u64)) {
         let h = cell_hash(cls.key, ix, iy);
+        let n = poisson_draw(&cls.cdf, unit_f64(h));
         let mut rng = Rng::new(h);
-        let n = poisson_draw(&cls.cdf, rng.f64());
         for i in 0..n {
             let pos = rng.next_u64();
-            let shape = rng.next_u64();
             let cx = (ix as f64 + (pos as u32) as f64 * (1.0 / 4_294_967_296.0)) * cls.cell;
             let cy = (iy as f64 + ((pos >> 32) as u32) as f64 * (1.0 / 4_294_967_296.0)) * cls.cell;
-            f(cx, cy, shape, mix64(h ^ (i as u64 + 1)));
+            f(cx, cy, h, i as u64);
         }
     }
 
@@ -365,18 +378,19 @@ impl CraterField {
             let iy1 = cell_of(y1 + cls.reach, cls.cell);
             for iy in iy0..=iy1 {
                 for ix in ix0..=ix1 {
-                    self.for_cell(cls, ix, iy, |cx, cy, shape, id| {
+                    self.for_cell(cls, ix, iy, |cx, cy, h, i| {
                         let r2 = rect_dist2(rect, cx, cy);
                         if r2 >= reach2 {
                             return;
                         }
+                        let shape = shape_of(h, i);
                         if fresh_only {
                             let deg = ((shape >> 32) as u32) as f64 * (1.0 / 4_294_967_296.0);
                             if deg >= self.fresh_fraction {
                                 return;
                             }
                         }
-                        let c = self.make(cls, cx, cy, shape, id);
+                        let c = self.make(cls, cx, cy, shape);
                         let e = c.ejecta_extent_radii * c.radius_m();
                         if r2 < e * e {
                             f(&c);
@@ -394,9 +408,9 @@ impl CraterField {
         for cls in self.classes.iter().filter(|c| c.d_max > d_min_m) {
             for iy in cell_of(y0, cls.cell)..=cell_of(y1, cls.cell) {
                 for ix in cell_of(x0, cls.cell)..=cell_of(x1, cls.cell) {
-                    self.for_cell(cls, ix, iy, |cx, cy, shape, id| {
+                    self.for_cell(cls, ix, iy, |cx, cy, h, i| {
                         if cx >= x0 && cx < x1 && cy >= y0 && cy < y1 {
-                            let c = self.make(cls, cx, cy, shape, id);
+                            let c = self.make(cls, cx, cy, shape_of(h, i));
                             if c.diameter_m >= d_min_m {
                                 out.push(c);
                             }

@@ -15,11 +15,15 @@ pub(crate) const fn layer_key(seed: u64, layer: u64) -> u64 {
     mix64(seed ^ mix64(layer.wrapping_add(0x6a09_e667_f3bc_c909)))
 }
 
-/// Hash of the grid cell `(ix, iy)` of a layer.
+/// Hash of the grid cell `(ix, iy)` of a layer (one mixing round: this is on the hot path).
 #[inline]
 pub(crate) const fn cell_hash(key: u64, ix: i64, iy: i64) -> u64 {
-    let a = mix64(key.wrapping_add((ix as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)));
-    mix64(a ^ (iy as u64).wrapping_mul(0xc2b2_ae3d_27d4_eb4f))
+    mix64(
+        key ^ (ix as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+            ^ (iy as u64)
+                .wrapping_mul(0xc2b2_ae3d_27d4_eb4f)
+                .rotate_left(29),
+    )
 }
 
 /// 32-bit hash of a lattice point, for gradient noise (cheap: called 4 times per octave).
@@ -63,5 +67,17 @@ impl Rng {
 /// non-finite `v`; callers reject non-finite input first).
 #[inline]
 pub(crate) fn cell_of(v: f64, cell: f64) -> i64 {
-    (v / cell).floor() as i64
+    floor_i64(v / cell)
+}
+
+/// `floor(v)` as an integer, exact for `|v| < 2^63` (saturating beyond, 0 for NaN). Inline
+/// integer arithmetic: without SSE4.1, `f64::floor` is a library call.
+#[inline]
+pub(crate) fn floor_i64(v: f64) -> i64 {
+    let i = v as i64;
+    if (i as f64) > v {
+        i.wrapping_sub(1)
+    } else {
+        i
+    }
 }

@@ -463,18 +463,19 @@ impl World {
         let xs: Vec<f64> = (0..nx)
             .map(|c| origin_x_m + (c as f64 + 0.5) * m_per_px)
             .collect();
+        let tile = ((TILE_MAX_M / m_per_px) as usize).clamp(1, TILE);
         grid.height_m
-            .par_chunks_mut(nx * TILE)
-            .zip(grid.albedo.par_chunks_mut(nx * TILE))
+            .par_chunks_mut(nx * tile)
+            .zip(grid.albedo.par_chunks_mut(nx * tile))
             .enumerate()
             .for_each(|(band, (hs, als))| {
                 let rows = hs.len() / nx;
                 let ys: Vec<f64> = (0..rows)
-                    .map(|r| origin_y_m - ((band * TILE + r) as f64 + 0.5) * m_per_px)
+                    .map(|r| origin_y_m - ((band * tile + r) as f64 + 0.5) * m_per_px)
                     .collect();
                 let mut items = Vec::new();
-                for (t, xt) in xs.chunks(TILE).enumerate() {
-                    self.fill_tile(xt, &ys, &mut items, hs, als, nx, t * TILE);
+                for (t, xt) in xs.chunks(tile).enumerate() {
+                    self.fill_tile(xt, &ys, &mut items, hs, als, nx, t * tile);
                 }
             });
         grid
@@ -605,7 +606,8 @@ impl World {
             return;
         };
         let finite = xa.is_finite() && xb.is_finite() && ya.is_finite() && yb.is_finite();
-        if finite {
+        let single = xs.len() == 1 && ys.len() == 1;
+        if finite && !single {
             let rect = [xa.min(xb), ya.min(yb), xa.max(xb), ya.max(yb)];
             items.clear();
             self.features(rect, !relief, |f| {
@@ -617,7 +619,7 @@ impl World {
         }
         for (r, &y) in ys.iter().enumerate() {
             for (c, &x) in xs.iter().enumerate() {
-                let (h, a) = if finite && x.is_finite() && y.is_finite() {
+                let (h, a) = if finite && !single {
                     let mut acc = self.base(x, y, relief, true);
                     for it in items.iter() {
                         acc.add(it.as_feature(), x, y);
@@ -634,8 +636,12 @@ impl World {
     }
 }
 
-/// Side of the tiles `sample_grid` gathers features for, pixels.
+/// Largest side of the tiles `sample_grid` gathers features for, pixels.
 const TILE: usize = 16;
+
+/// Largest ground side of a tile, metres: a tile gathers every boulder cell it touches
+/// (cells of 0.4 m and up), so coarse grids use smaller tiles, down to single pixels.
+const TILE_MAX_M: f64 = 4.0;
 
 /// A feature reaching a query, borrowed.
 #[derive(Clone, Copy)]

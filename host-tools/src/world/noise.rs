@@ -1,7 +1,7 @@
 //! Fractal gradient noise (Perlin-style) from integer lattice hashes. Only `+ - * /` and
 //! `floor` on `f64`, so results are bit-identical on every IEEE-754 machine.
 
-use super::hash::{lattice_hash, layer_key};
+use super::hash::{floor_i64, lattice_hash, layer_key};
 
 const S: f64 = core::f64::consts::FRAC_1_SQRT_2;
 /// Eight unit gradients.
@@ -20,13 +20,13 @@ const GRADIENTS: [(f64, f64); 8] = [
 /// lattice points, C2-continuous (quintic fade).
 #[inline]
 pub(crate) fn gradient_noise(seed: u32, x: f64, y: f64) -> f64 {
-    let xf = x.floor();
-    let yf = y.floor();
-    let fx = x - xf;
-    let fy = y - yf;
+    let xi = floor_i64(x);
+    let yi = floor_i64(y);
+    let fx = x - xi as f64;
+    let fy = y - yi as f64;
     // Wrapping to i32 is fine: the lattice repeats only every 2^32 cells.
-    let ix = xf as i64 as i32;
-    let iy = yf as i64 as i32;
+    let ix = xi as i32;
+    let iy = yi as i32;
     let g = |dx: i32, dy: i32, px: f64, py: f64| {
         let h = lattice_hash(seed, ix.wrapping_add(dx), iy.wrapping_add(dy));
         let (gx, gy) = GRADIENTS[(h >> 29) as usize];

@@ -8,7 +8,7 @@
 //! the rim.
 
 use super::craters::{
-    octave_bins, poisson_cdf, poisson_draw, power_law_diameter, rect_dist2, Crater,
+    octave_bins, poisson_cdf, poisson_draw, power_law_diameter, rect_dist2, unit_f64, Crater,
 };
 use super::hash::{cell_hash, cell_of, layer_key, mix64, Rng};
 use super::WorldConfig;
@@ -97,12 +97,18 @@ impl RockField {
         }
     }
 
+    /// Centre (metres) of the next rock of a cell, and the draw for the rest of it.
     #[inline]
-    fn make(&self, cls: &RockClass, ix: i64, iy: i64, rng: &mut Rng) -> Rock {
+    fn place(cls: &RockClass, ix: i64, iy: i64, rng: &mut Rng) -> (f64, f64, u64) {
         let pos = rng.next_u64();
         let shape = rng.next_u64();
         let x = (ix as f64 + (pos as u32) as f64 * (1.0 / 4_294_967_296.0)) * cls.cell;
         let y = (iy as f64 + ((pos >> 32) as u32) as f64 * (1.0 / 4_294_967_296.0)) * cls.cell;
+        (x, y, shape)
+    }
+
+    #[inline]
+    fn make(&self, cls: &RockClass, x: f64, y: f64, shape: u64) -> Rock {
         let ud = (shape as u32) as f64 * (1.0 / 4_294_967_296.0);
         let d = power_law_diameter(ud, cls.d_min, cls.d_max, self.exponent);
         let uh = ((shape >> 32) & 0xffff) as f64 * (1.0 / 65536.0);
@@ -126,12 +132,18 @@ impl RockField {
             let reach = 0.5 * cls.d_max;
             for iy in cell_of(y0 - reach, cls.cell)..=cell_of(y1 + reach, cls.cell) {
                 for ix in cell_of(x0 - reach, cls.cell)..=cell_of(x1 + reach, cls.cell) {
-                    let mut rng = Rng::new(cell_hash(cls.key, ix, iy));
-                    let n = poisson_draw(&cls.cdf_background, rng.f64());
+                    let h = cell_hash(cls.key, ix, iy);
+                    let n = poisson_draw(&cls.cdf_background, unit_f64(h));
+                    let mut rng = Rng::new(h);
                     for _ in 0..n {
-                        let r = self.make(cls, ix, iy, &mut rng);
+                        let (rx, ry, shape) = Self::place(cls, ix, iy, &mut rng);
+                        let d2 = rect_dist2(rect, rx, ry);
+                        if d2 >= reach * reach {
+                            continue;
+                        }
+                        let r = self.make(cls, rx, ry, shape);
                         let rr = 0.5 * r.diameter_m;
-                        if rect_dist2(rect, r.x_m, r.y_m) < rr * rr {
+                        if d2 < rr * rr {
                             f(&r);
                         }
                     }
@@ -162,13 +174,19 @@ impl RockField {
             let reach = 0.5 * cls.d_max;
             for iy in cell_of(y0 - reach, cls.cell)..=cell_of(y1 + reach, cls.cell) {
                 for ix in cell_of(x0 - reach, cls.cell)..=cell_of(x1 + reach, cls.cell) {
-                    let mut rng = Rng::new(cell_hash(key, ix, iy));
-                    let n = poisson_draw(&cls.cdf_fresh, rng.f64());
+                    let h = cell_hash(key, ix, iy);
+                    let n = poisson_draw(&cls.cdf_fresh, unit_f64(h));
+                    let mut rng = Rng::new(h);
                     for _ in 0..n {
-                        let r = self.make(cls, ix, iy, &mut rng);
+                        let (rx, ry, shape) = Self::place(cls, ix, iy, &mut rng);
                         let keep = rng.f64();
+                        let d2 = rect_dist2(rect, rx, ry);
+                        if d2 >= reach * reach {
+                            continue;
+                        }
+                        let r = self.make(cls, rx, ry, shape);
                         let rr = 0.5 * r.diameter_m;
-                        if rect_dist2(rect, r.x_m, r.y_m) >= rr * rr {
+                        if d2 >= rr * rr {
                             continue;
                         }
                         let (ex, ey) = (r.x_m - c.x_m, r.y_m - c.y_m);
@@ -194,10 +212,12 @@ impl RockField {
         for cls in &self.classes {
             for iy in cell_of(y0, cls.cell)..=cell_of(y1, cls.cell) {
                 for ix in cell_of(x0, cls.cell)..=cell_of(x1, cls.cell) {
-                    let mut rng = Rng::new(cell_hash(cls.key, ix, iy));
-                    let n = poisson_draw(&cls.cdf_background, rng.f64());
+                    let h = cell_hash(cls.key, ix, iy);
+                    let n = poisson_draw(&cls.cdf_background, unit_f64(h));
+                    let mut rng = Rng::new(h);
                     for _ in 0..n {
-                        let r = self.make(cls, ix, iy, &mut rng);
+                        let (rx, ry, shape) = Self::place(cls, ix, iy, &mut rng);
+                        let r = self.make(cls, rx, ry, shape);
                         if r.x_m >= x0 && r.x_m < x1 && r.y_m >= y0 && r.y_m < y1 {
                             out.push(r);
                         }
