@@ -575,3 +575,64 @@ fn throughput() {
         s + hs
     );
 }
+
+#[test]
+fn world_is_clone_send_sync() {
+    fn check<T: Clone + Send + Sync + 'static>() {}
+    check::<World>();
+    check::<orbfix_host::world::HeightGrid>();
+}
+
+/// Terrain statistics for docs/world.md: `cargo test --release -p orbfix-host --test world
+/// -- --ignored --nocapture statistics`.
+#[test]
+#[ignore]
+fn statistics() {
+    let world = World::new(1);
+    let mut counts = Vec::new();
+    let mut sds = Vec::new();
+    let mut ranges = Vec::new();
+    for z in zones::ALL {
+        let loc = z.location_area();
+        for j in 0..10 {
+            for i in 0..10 {
+                let x = loc.x_min_m + (i as f64 + 0.5) * loc.width_m() / 10.0;
+                let y = loc.y_min_m + (j as f64 + 0.5) * loc.height_m() / 10.0;
+                let n = world
+                    .craters_in(x - 25.0, y - 25.0, x + 25.0, y + 25.0, 2.0)
+                    .expect("rect ok")
+                    .iter()
+                    .filter(|c| c.diameter_m <= 50.0)
+                    .count();
+                counts.push(n as f64);
+                let g = world.sample_grid(x - 150.0, y + 150.0, 2.0, 150, 150);
+                let v: Vec<f64> = g.height_m.iter().map(|&h| f64::from(h)).collect();
+                let mean = v.iter().sum::<f64>() / v.len() as f64;
+                let sd =
+                    (v.iter().map(|h| (h - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt();
+                sds.push(sd);
+                let lo = v.iter().cloned().fold(f64::MAX, f64::min);
+                let hi = v.iter().cloned().fold(f64::MIN, f64::max);
+                ranges.push(hi - lo);
+            }
+        }
+    }
+    let q = |v: &mut Vec<f64>| {
+        v.sort_by(|a, b| a.total_cmp(b));
+        let n = v.len();
+        (v[0], v[n / 10], v[n / 2], v[9 * n / 10], v[n - 1])
+    };
+    println!("{} locations on a 10 x 10 lattice per zone", counts.len());
+    println!(
+        "craters 2..50 m per 50 x 50 m patch (min, p10, median, p90, max): {:?}",
+        q(&mut counts)
+    );
+    println!(
+        "height sd over the 300 x 300 m map region, m: {:?}",
+        q(&mut sds)
+    );
+    println!(
+        "height range over the 300 x 300 m map region, m: {:?}",
+        q(&mut ranges)
+    );
+}
