@@ -17,6 +17,7 @@
 pub mod l1;
 pub mod l2;
 pub mod ncc;
+pub mod prep;
 
 use crate::image::{ImageView, ImageViewMut};
 

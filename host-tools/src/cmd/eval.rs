@@ -44,6 +44,9 @@ pub struct Args {
     /// Example localizations drawn into --figures.
     #[arg(long, default_value_t = 3)]
     pub examples: usize,
+    /// Diagnostic: a world with zero relief and the same albedo.
+    #[arg(long)]
+    pub flat_world: bool,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -65,6 +68,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         stride_px: 50,
         pipeline: PipelineOptions::default(),
         keep_examples: if a.figures.is_some() { a.examples } else { 0 },
+        flat_world: a.flat_world,
     };
     let out = run_eval(&cfg, !a.quiet)?;
     print_table(&out);
@@ -149,6 +153,17 @@ pub fn write_figures(out: &EvalOutput, dir: &Path) -> anyhow::Result<()> {
             &overlay::top_down_picture(&ex.top),
             &dir.join(format!("example_{cond}_{id:03}_topdown.png")),
         )?;
+        // The map under the truth, the same size as the top-down image, for comparison.
+        let (c, r) = ex.map.geo.to_pixel(ex.query.x_m as f32, ex.query.y_m as f32);
+        let n = ex.top.n;
+        let c0 = (c.round() as i64 - n as i64 / 2).clamp(0, (ex.map.width - n) as i64) as u32;
+        let r0 = (r.round() as i64 - n as i64 / 2).clamp(0, (ex.map.height - n) as i64) as u32;
+        if let Some(full) =
+            image::GrayImage::from_raw(ex.map.width as u32, ex.map.height as u32, ex.map.image.clone())
+        {
+            let crop = image::imageops::crop_imm(&full, c0, r0, n as u32, n as u32).to_image();
+            save_png_atomic(&crop, &dir.join(format!("example_{cond}_{id:03}_map_at_truth.png")))?;
+        }
         for (r, loc) in out.reports.iter().zip(&ex.locs) {
             let pic = overlay::map_picture(
                 &ex.map,

@@ -39,26 +39,57 @@ pub struct MatcherSpec {
     /// Weight the mask by 1 / distance from the rover (MARSAUTOLOCO's option), radius of
     /// full weight in pixels; `None` = uniform weights.
     pub distance_weighting_px: Option<u32>,
+    /// Masked high-pass of top-down image and map before matching: box radius, metres.
+    pub highpass_m: Option<f32>,
+    /// Ignore top-down pixels farther than this from the rover, metres.
+    pub max_range_m: Option<f32>,
 }
 
-/// Looks a matcher up by name (see [`MATCHERS`]).
+/// Looks a matcher up by name: a base (`l1`, `l2`, `ncc`) followed by options, each
+/// `-dist` (1 / distance weights, full weight within 5 m), `-hpN` (high-pass, box radius N
+/// metres), `-rN` (use the top-down image within N metres of the rover only); e.g.
+/// `ncc-hp4-r20`. [`MATCHERS`] lists the ones reported.
 pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
-    let (matcher, dw): (Box<dyn Matcher + Send + Sync>, Option<u32>) = match name {
-        "l1" => (Box::new(L1), None),
-        "l2" => (Box::new(L2), None),
-        "ncc" => (Box::new(Ncc::default()), None),
-        // Full weight within 5 m (20 px at 0.25 m/px), 1 / distance beyond.
-        "ncc-dist" => (Box::new(Ncc::default()), Some(20)),
+    let mut parts = name.split('-');
+    let base = parts.next().unwrap_or("");
+    let matcher: Box<dyn Matcher + Send + Sync> = match base {
+        "l1" => Box::new(L1),
+        "l2" => Box::new(L2),
+        "ncc" => Box::new(Ncc::default()),
         _ => bail!(
-            "unknown matcher '{name}': choose one of {}",
+            "unknown matcher '{name}': choose one of {} (options: -dist, -hpN, -rN)",
             MATCHERS.join(", ")
         ),
     };
-    Ok(MatcherSpec {
+    let mut spec = MatcherSpec {
         name: name.to_string(),
         matcher,
-        distance_weighting_px: dw,
-    })
+        distance_weighting_px: None,
+        highpass_m: None,
+        max_range_m: None,
+    };
+    for p in parts {
+        let num = |pre: &str| -> anyhow::Result<f32> {
+            let v: f32 = p[pre.len()..].parse().with_context(|| {
+                format!("matcher option '{p}' of '{name}': expected {pre}<metres>")
+            })?;
+            anyhow::ensure!(
+                v.is_finite() && v > 0.0,
+                "matcher option '{p}' must be positive"
+            );
+            Ok(v)
+        };
+        if p == "dist" {
+            spec.distance_weighting_px = Some(20);
+        } else if p.starts_with("hp") {
+            spec.highpass_m = Some(num("hp")?);
+        } else if p.starts_with('r') {
+            spec.max_range_m = Some(num("r")?);
+        } else {
+            bail!("unknown option '{p}' in matcher '{name}' (options: -dist, -hpN, -rN)");
+        }
+    }
+    Ok(spec)
 }
 
 /// Parses a comma-separated matcher list (`l1,l2,ncc`), checking every name.
@@ -132,6 +163,22 @@ pub struct Localization {
 
 /// The weights a matcher sees for a top-down mask.
 pub fn weights_for(spec: &MatcherSpec, top: &TopDown) -> anyhow::Result<Vec<u8>> {
+    let mut mask = top.mask.clone();
+    if let Some(r) = spec.max_range_m {
+        let r_px = (r / top.m_per_px) as f64;
+        let c = top.n as f64 / 2.0;
+        for (i, m) in mask.iter_mut().enumerate() {
+            let (x, y) = ((i % top.n) as f64 + 0.5 - c, (i / top.n) as f64 + 0.5 - c);
+            if x * x + y * y > r_px * r_px {
+                *m = 0;
+            }
+        }
+    }
+    let top = &TopDown {
+        mask,
+        image: Vec::new(),
+        ..*top
+    };
     match spec.distance_weighting_px {
         None => Ok(top.mask.clone()),
         Some(r0) => {
@@ -143,6 +190,56 @@ pub fn weights_for(spec: &MatcherSpec, top: &TopDown) -> anyhow::Result<Vec<u8>>
             distance_weights(&m, &mut o, r0)
                 .map_err(|e| anyhow::anyhow!("distance weighting failed: {e:?}"))?;
             Ok(out)
+        }
+    }
+}
+
+/// The images a matcher sees: top-down image, its weights and the map, pre-processed.
+pub struct Prepared {
+    /// Top-down image (high-passed if the matcher asks).
+    pub top: Vec<u8>,
+    /// Weights (mask, range cut, distance weighting).
+    pub weights: Vec<u8>,
+    /// Map (high-passed if the matcher asks).
+    pub map: Vec<u8>,
+}
+
+fn highpassed(
+    img: &[u8],
+    mask: Option<&[u8]>,
+    w: usize,
+    h: usize,
+    radius: usize,
+) -> anyhow::Result<Vec<u8>> {
+    let src = ImageView::new(img, w, h).map_err(|e| anyhow::anyhow!("bad image: {e:?}"))?;
+    let m = match mask {
+        Some(m) => Some(ImageView::new(m, w, h).map_err(|e| anyhow::anyhow!("bad mask: {e:?}"))?),
+        None => None,
+    };
+    let mut out = vec![0u8; w * h];
+    let mut o = ImageViewMut::new(&mut out, w, h).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let mut scratch = vec![0u32; orbfix::matcher::prep::highpass_buffer_len(w)];
+    orbfix::matcher::prep::highpass(&src, m.as_ref(), radius, &mut o, &mut scratch)
+        .map_err(|e| anyhow::anyhow!("high-pass failed: {e:?}"))?;
+    Ok(out)
+}
+
+/// Pre-processes a query's images for a matcher.
+pub fn prepare(spec: &MatcherSpec, top: &TopDown, map: &MapRegion) -> anyhow::Result<Prepared> {
+    let weights = weights_for(spec, top)?;
+    match spec.highpass_m {
+        None => Ok(Prepared {
+            top: top.image.clone(),
+            weights,
+            map: map.image.clone(),
+        }),
+        Some(r_m) => {
+            let r = ((r_m / top.m_per_px).round() as usize).max(1);
+            Ok(Prepared {
+                top: highpassed(&top.image, Some(&weights), top.n, top.n, r)?,
+                map: highpassed(&map.image, None, map.width, map.height, r)?,
+                weights,
+            })
         }
     }
 }
@@ -166,12 +263,13 @@ pub fn localize_top_down(
             top.n
         );
     }
-    let weights = weights_for(spec, top)?;
-    let t = ImageView::new(&top.image, top.n, top.n)
+    let p = prepare(spec, top, map)?;
+    let t = ImageView::new(&p.top, top.n, top.n)
         .map_err(|e| anyhow::anyhow!("bad top-down image: {e:?}"))?;
-    let w = ImageView::new(&weights, top.n, top.n)
+    let w = ImageView::new(&p.weights, top.n, top.n)
         .map_err(|e| anyhow::anyhow!("bad top-down mask: {e:?}"))?;
-    let m = map.view()?;
+    let m = ImageView::new(&p.map, map.width, map.height)
+        .map_err(|e| anyhow::anyhow!("map image does not match its size: {e:?}"))?;
     let (nb, nf) = localize::buffer_sizes(top.n, top.n, map.width, map.height, cfg)
         .map_err(|e| anyhow::anyhow!("localization set-up rejected: {e:?}"))?;
     let mut bytes = vec![0u8; nb];

@@ -34,6 +34,9 @@ pub struct EvalConfig {
     pub pipeline: PipelineOptions,
     /// Queries kept with their images for example figures.
     pub keep_examples: usize,
+    /// Diagnostic: a world with zero relief and the same albedo (isolates photometry and
+    /// relief from geometry).
+    pub flat_world: bool,
 }
 
 /// The result of one query for one matcher.
@@ -135,14 +138,14 @@ pub struct EvalOutput {
 fn score_at(
     spec: &super::MatcherSpec,
     top: &TopDown,
-    weights: &[u8],
+    p: &super::Prepared,
     map: &MapRegion,
     col: usize,
     row: usize,
 ) -> anyhow::Result<f64> {
-    let t = ImageView::new(&top.image, top.n, top.n).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let w = ImageView::new(weights, top.n, top.n).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let m = map.view()?;
+    let t = ImageView::new(&p.top, top.n, top.n).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let w = ImageView::new(&p.weights, top.n, top.n).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let m = ImageView::new(&p.map, map.width, map.height).map_err(|e| anyhow::anyhow!("{e:?}"))?;
     let win = m
         .sub(col, row, top.n, top.n)
         .ok_or_else(|| anyhow::anyhow!("pair window ({col}, {row}) outside the map"))?;
@@ -197,7 +200,7 @@ fn run_query(
         let tw = nearest_window(&loc.window_grid, &map.geo, n, n, q.x_m as f32, q.y_m as f32);
         let rank = rank_of(&loc.window_scores, tw).unwrap_or(usize::MAX);
         let fx = (loc.fix.x_m as f64, loc.fix.y_m as f64);
-        let weights = super::weights_for(&spec, &top)?;
+        let prepared = super::prepare(&spec, &top, &map)?;
         results.push(QueryResult {
             id: q.id,
             truth_m: (q.x_m, q.y_m),
@@ -208,8 +211,8 @@ fn run_query(
             true_window: tw,
             confidence: loc.fix.confidence as f64,
             on_border: loc.fix.on_border,
-            match_score: score_at(&spec, &top, &weights, &map, tcol, trow)?,
-            nonmatch_score: score_at(&spec, &top, &weights, &map, ncol, nrow)?,
+            match_score: score_at(&spec, &top, &prepared, &map, tcol, trow)?,
+            nonmatch_score: score_at(&spec, &top, &prepared, &map, ncol, nrow)?,
             coverage,
             dense_s: loc.dense_s,
             windows_s: loc.windows_s,
@@ -236,7 +239,11 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
     for m in &cfg.matchers {
         matcher_by_name(m)?;
     }
-    let world = World::new(cfg.seed);
+    let world = if cfg.flat_world {
+        World::flat(cfg.seed)
+    } else {
+        World::new(cfg.seed)
+    };
     let queries = make_queries(cfg.seed, cfg.queries, cfg.condition);
     let bar = if progress {
         indicatif::ProgressBar::new(queries.len() as u64)
