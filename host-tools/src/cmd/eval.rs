@@ -3,7 +3,7 @@
 
 use anyhow::Context;
 use orbfix::localize::LocalizeConfig;
-use orbfix_host::eval::pipeline::{Condition, PipelineOptions};
+use orbfix_host::eval::pipeline::{Condition, PipelineOptions, Reprojection};
 use orbfix_host::eval::run::{run_eval, EvalConfig, EvalOutput};
 use orbfix_host::eval::{
     figures, overlay, parse_matchers, save_png_atomic, write_atomic, MATCHERS,
@@ -44,6 +44,10 @@ pub struct Args {
     /// Example localizations drawn into --figures.
     #[arg(long, default_value_t = 3)]
     pub examples: usize,
+    /// Top-down reprojection: lut (the flight core's flat-ground table) or range (host
+    /// reference placing pixels at their true 3D points, as a point cloud would).
+    #[arg(long, value_enum, default_value_t = Reprojection::Lut)]
+    pub reprojection: Reprojection,
     /// Diagnostic: a world with zero relief and the same albedo.
     #[arg(long)]
     pub flat_world: bool,
@@ -66,7 +70,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             ..LocalizeConfig::default()
         },
         stride_px: 50,
-        pipeline: PipelineOptions::default(),
+        pipeline: PipelineOptions {
+            reprojection: a.reprojection,
+            ..PipelineOptions::default()
+        },
         keep_examples: if a.figures.is_some() { a.examples } else { 0 },
         flat_world: a.flat_world,
     };
@@ -102,15 +109,19 @@ pub fn print_table(out: &EvalOutput) {
         "err",
         "border"
     );
+    println!("R@k: true window among the k best of the study's windows (each scored at its position); dR@k: windows ranked by their cell's best dense score");
     for r in &out.reports {
         println!(
-            "{:<9} {:<9} {:>4} {:>6.3} {:>6.3} {:>7.3} {:>9.2} {:>8.2} {:>6.3} {:>6.3} {:>7}",
+            "{:<12} {:<9} {:>4} {:>6.3} {:>6.3} {:>6.3} {:>7.3} {:>7.3} {:>7.3} {:>9.2} {:>8.2} {:>6.3} {:>6.3} {:>7}",
             r.matcher,
             r.condition,
             r.queries,
             r.recall_at["1"],
             r.recall_at["5"],
             r.recall_at["10"],
+            r.recall_at_dense["1"],
+            r.recall_at_dense["5"],
+            r.recall_at_dense["10"],
             r.median_error_m,
             r.p95_error_m,
             r.pairs.auc,
@@ -154,15 +165,23 @@ pub fn write_figures(out: &EvalOutput, dir: &Path) -> anyhow::Result<()> {
             &dir.join(format!("example_{cond}_{id:03}_topdown.png")),
         )?;
         // The map under the truth, the same size as the top-down image, for comparison.
-        let (c, r) = ex.map.geo.to_pixel(ex.query.x_m as f32, ex.query.y_m as f32);
+        let (c, r) = ex
+            .map
+            .geo
+            .to_pixel(ex.query.x_m as f32, ex.query.y_m as f32);
         let n = ex.top.n;
         let c0 = (c.round() as i64 - n as i64 / 2).clamp(0, (ex.map.width - n) as i64) as u32;
         let r0 = (r.round() as i64 - n as i64 / 2).clamp(0, (ex.map.height - n) as i64) as u32;
-        if let Some(full) =
-            image::GrayImage::from_raw(ex.map.width as u32, ex.map.height as u32, ex.map.image.clone())
-        {
+        if let Some(full) = image::GrayImage::from_raw(
+            ex.map.width as u32,
+            ex.map.height as u32,
+            ex.map.image.clone(),
+        ) {
             let crop = image::imageops::crop_imm(&full, c0, r0, n as u32, n as u32).to_image();
-            save_png_atomic(&crop, &dir.join(format!("example_{cond}_{id:03}_map_at_truth.png")))?;
+            save_png_atomic(
+                &crop,
+                &dir.join(format!("example_{cond}_{id:03}_map_at_truth.png")),
+            )?;
         }
         for (r, loc) in out.reports.iter().zip(&ex.locs) {
             let pic = overlay::map_picture(

@@ -318,6 +318,38 @@ pub fn localize_top_down(
     })
 }
 
+/// Window scores from the dense coarse response: each of the study's windows gets the best
+/// coarse score of the rover positions in its cell (within half a stride of the window's
+/// centre), so a window 6 m off a sharp texture is not penalised for its offset. Row-major
+/// over `loc.window_grid`.
+pub fn window_cell_scores(loc: &Localization) -> Vec<f32> {
+    let wg = loc.window_grid;
+    let cg = loc.fix.coarse_grid;
+    let half = wg.step as i64 / 2;
+    (0..wg.len())
+        .map(|i| {
+            let (x0, y0) = (
+                (i % wg.cols * wg.step) as i64,
+                (i / wg.cols * wg.step) as i64,
+            );
+            let mut best = f32::NEG_INFINITY;
+            for r in 0..cg.rows {
+                let y = (r * cg.step) as i64;
+                if y < y0 - half || y >= y0 + half {
+                    continue;
+                }
+                for c in 0..cg.cols {
+                    let x = (c * cg.step) as i64;
+                    if x >= x0 - half && x < x0 + half {
+                        best = best.max(loc.coarse_response[r * cg.cols + c]);
+                    }
+                }
+            }
+            best
+        })
+        .collect()
+}
+
 /// A sentence for a core localization error.
 pub fn describe(e: &orbfix::localize::LocalizeError) -> String {
     use orbfix::localize::LocalizeError as E;

@@ -12,9 +12,22 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
+/// How the four views become a top-down image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Reprojection {
+    /// The flight core's integer LUT, flat-ground assumption (what the rover runs).
+    Lut,
+    /// Host-only reference: each pixel placed at its true 3D ground point (the renderer's
+    /// range image, i.e. what stereo or a point cloud would give), averaged per cell.
+    Range,
+}
+
 /// Pipeline settings shared by every query.
 #[derive(Clone, Debug)]
 pub struct PipelineOptions {
+    /// How views become the top-down image.
+    pub reprojection: Reprojection,
     /// Renderer options (camera rig, photometry, exposure, noise).
     pub render: RenderOptions,
     /// Top-down grid (200 x 200 at 0.25 m/px = 50 m by default).
@@ -26,6 +39,7 @@ pub struct PipelineOptions {
 impl Default for PipelineOptions {
     fn default() -> Self {
         Self {
+            reprojection: Reprojection::Lut,
             render: RenderOptions::default(),
             grid: GridSpec::default(),
             map_px: 1200,
@@ -43,9 +57,67 @@ pub fn observe(
     opts: &PipelineOptions,
 ) -> anyhow::Result<TopDown> {
     let pose = render::ground_pose(world, x_m, y_m, heading_deg);
-    let views = render::render_views(world, &pose, sun, &opts.render)
-        .with_context(|| format!("rendering the views at ({x_m:.1}, {y_m:.1}) m"))?;
-    reproject_views(&views, &opts.render, &pose, &opts.grid)
+    match opts.reprojection {
+        Reprojection::Lut => {
+            let views = render::render_views(world, &pose, sun, &opts.render)
+                .with_context(|| format!("rendering the views at ({x_m:.1}, {y_m:.1}) m"))?;
+            reproject_views(&views, &opts.render, &pose, &opts.grid)
+        }
+        Reprojection::Range => {
+            let set = render::render_views_with_range(world, &pose, sun, &opts.render)
+                .with_context(|| format!("rendering the views at ({x_m:.1}, {y_m:.1}) m"))?;
+            Ok(reproject_by_range(&set, &pose, &opts.grid))
+        }
+    }
+}
+
+/// Places every pixel with a range at its 3D point and averages gray levels per grid cell
+/// (host reference of a point-cloud reprojection; cells no pixel reaches are "no data").
+pub fn reproject_by_range(
+    set: &render::ViewSet,
+    pose: &orbfix::camera::RoverPose,
+    grid: &GridSpec,
+) -> TopDown {
+    let n = grid.n;
+    let m = grid.m_per_px as f64;
+    let mut sum = vec![0u64; n * n];
+    let mut cnt = vec![0u32; n * n];
+    for ((img, range), cam) in set.views.iter().zip(&set.range_m).zip(&set.cameras) {
+        let w = img.width() as usize;
+        for (i, (&g, &r)) in img.as_raw().iter().zip(range).enumerate() {
+            if r <= 0.0 {
+                continue;
+            }
+            let d = cam.ray((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+            let px = cam.centre.x as f64 + r as f64 * d.x as f64;
+            let py = cam.centre.y as f64 + r as f64 * d.y as f64;
+            let c = ((px - pose.x_m as f64) / m + n as f64 / 2.0).floor();
+            let rr = ((pose.y_m as f64 - py) / m + n as f64 / 2.0).floor();
+            if c >= 0.0 && rr >= 0.0 && (c as usize) < n && (rr as usize) < n {
+                let k = rr as usize * n + c as usize;
+                sum[k] += g as u64;
+                cnt[k] += 1;
+            }
+        }
+    }
+    let image = sum
+        .iter()
+        .zip(&cnt)
+        .map(|(&s, &c)| {
+            if c == 0 {
+                0
+            } else {
+                ((s + c as u64 / 2) / c as u64) as u8
+            }
+        })
+        .collect();
+    let mask = cnt.iter().map(|&c| if c == 0 { 0 } else { 255 }).collect();
+    TopDown {
+        image,
+        mask,
+        n,
+        m_per_px: grid.m_per_px,
+    }
 }
 
 /// Reprojects four views (front, right, rear, left) to a top-down image with the core LUT.

@@ -56,6 +56,9 @@ pub struct QueryResult {
     pub true_window_rank: usize,
     /// Index of the true window (nearest the truth).
     pub true_window: usize,
+    /// Rank (0 = best) of the true window's cell by the dense response
+    /// ([`super::window_cell_scores`]).
+    pub true_cell_rank: usize,
     /// Confidence of the fix.
     pub confidence: f64,
     /// Peak on the search border (declared a failure).
@@ -87,8 +90,12 @@ pub struct EvalReport {
     pub queries: usize,
     /// Windows per query (441 for the study's setting).
     pub windows_per_query: usize,
-    /// Share of queries whose true window is among the `k` best windows.
+    /// Share of queries whose true window is among the `k` best windows (the study's
+    /// protocol: each window scored once at its own position).
     pub recall_at: BTreeMap<String, f64>,
+    /// The same with windows ranked by their cell's best dense-response score
+    /// ([`super::window_cell_scores`]).
+    pub recall_at_dense: BTreeMap<String, f64>,
     /// Median distance fix - truth, metres.
     pub median_error_m: f64,
     /// 95th percentile distance fix - truth, metres.
@@ -199,6 +206,7 @@ fn run_query(
         .with_context(|| format!("query {} with {name}", q.id))?;
         let tw = nearest_window(&loc.window_grid, &map.geo, n, n, q.x_m as f32, q.y_m as f32);
         let rank = rank_of(&loc.window_scores, tw).unwrap_or(usize::MAX);
+        let cell_rank = rank_of(&super::window_cell_scores(&loc), tw).unwrap_or(usize::MAX);
         let fx = (loc.fix.x_m as f64, loc.fix.y_m as f64);
         let prepared = super::prepare(&spec, &top, &map)?;
         results.push(QueryResult {
@@ -209,6 +217,7 @@ fn run_query(
             error_m: ((fx.0 - q.x_m).powi(2) + (fx.1 - q.y_m).powi(2)).sqrt(),
             true_window_rank: rank,
             true_window: tw,
+            true_cell_rank: cell_rank,
             confidence: loc.fix.confidence as f64,
             on_border: loc.fix.on_border,
             match_score: score_at(&spec, &top, &prepared, &map, tcol, trow)?,
@@ -302,6 +311,7 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
     for (k, name) in cfg.matchers.iter().enumerate() {
         let rs = &per_matcher[k];
         let ranks: Vec<usize> = rs.iter().map(|r| r.true_window_rank).collect();
+        let cell_ranks: Vec<usize> = rs.iter().map(|r| r.true_cell_rank).collect();
         let errs: Vec<f64> = rs.iter().map(|r| r.error_m).collect();
         let pos: Vec<f64> = rs.iter().map(|r| r.match_score).collect();
         let neg: Vec<f64> = rs.iter().map(|r| r.nonmatch_score).collect();
@@ -327,6 +337,10 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
             recall_at: [1usize, 5, 10]
                 .iter()
                 .map(|&k| (k.to_string(), recall_at(&ranks, k)))
+                .collect(),
+            recall_at_dense: [1usize, 5, 10]
+                .iter()
+                .map(|&k| (k.to_string(), recall_at(&cell_ranks, k)))
                 .collect(),
             median_error_m: quantile(&errs, 0.5),
             p95_error_m: quantile(&errs, 0.95),
