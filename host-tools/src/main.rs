@@ -30,6 +30,8 @@ enum Command {
     Map(cmd::map::Args),
     /// Time one localization per matcher (441 windows and dense) with operation counts.
     BenchLocalize(cmd::bench_localize::Args),
+    /// Write docs/results.md from the reports of scripts/results.sh.
+    Results(cmd::results::Args),
     /// Print the terrain elevation (metres) at a world point of the built-in world.
     Elevation {
         /// World seed.
@@ -55,6 +57,7 @@ fn main() -> anyhow::Result<()> {
         Command::Eval(a) => cmd::eval::run(a)?,
         Command::Map(a) => cmd::map::run(a)?,
         Command::BenchLocalize(a) => cmd::bench_localize::run(a)?,
+        Command::Results(a) => cmd::results::run(a)?,
         Command::Elevation { seed, x, y } => {
             let world = orbfix_host::world::World::new(seed);
             println!("{:.3}", world.height_m(x, y));

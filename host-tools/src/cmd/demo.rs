@@ -4,10 +4,12 @@
 
 use anyhow::Context;
 use orbfix::localize::{nearest_window, rank_of, LocalizeConfig};
-use orbfix_host::eval::pipeline::{make_queries, render_query, Condition, PipelineOptions};
+use orbfix_host::eval::pipeline::{
+    make_queries, render_query, Condition, PipelineOptions, Reprojection,
+};
 use orbfix_host::eval::{
-    best_matcher, localize_top_down, matcher_by_name, overlay, save_png_atomic, write_atomic,
-    MATCHERS,
+    best_matcher, localize_top_down, matcher_by_name, overlay, save_png_atomic, window_cell_scores,
+    write_atomic, MATCHERS,
 };
 use orbfix_host::world::World;
 use serde::Serialize;
@@ -29,6 +31,11 @@ pub struct Args {
     /// Matcher (default: the best available).
     #[arg(long)]
     pub matcher: Option<String>,
+    /// Top-down reprojection: range (host reference: pixels at their true 3D points) or lut
+    /// (the flight core's flat-ground table, which relief distorts beyond ~10 m; see
+    /// docs/results.md).
+    #[arg(long, value_enum, default_value_t = Reprojection::Range)]
+    pub reprojection: Reprojection,
     /// Lighting (same-sun is the study's setting).
     #[arg(long, value_enum, default_value_t = Condition::SameSun)]
     pub condition: Condition,
@@ -44,6 +51,7 @@ struct Row {
     confidence: f64,
     on_border: bool,
     true_window_rank: usize,
+    true_cell_rank: usize,
     render_s: f64,
     localize_s: f64,
 }
@@ -59,16 +67,34 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create the output folder {}", a.out.display()))?;
     let world = World::new(a.seed);
-    let opts = PipelineOptions::default();
+    let opts = PipelineOptions {
+        reprojection: a.reprojection,
+        ..PipelineOptions::default()
+    };
     let cfg = LocalizeConfig::default();
     let queries = make_queries(a.seed, a.stops, a.condition);
     println!(
-        "orbfix demo: {} stops in the test zone, world seed {}, matcher {}, {}; map 300 x 300 m at 0.25 m/px, prior within +-100 m",
-        a.stops, a.seed, name, a.condition.name()
+        "orbfix demo: {} stops in the test zone, world seed {}, matcher {}, {}, top-down by {}; map 300 x 300 m at 0.25 m/px, prior within +-100 m",
+        a.stops,
+        a.seed,
+        name,
+        a.condition.name(),
+        match a.reprojection {
+            Reprojection::Range => "range (host reference, true 3D points)",
+            Reprojection::Lut => "the flight LUT (flat ground)",
+        }
     );
     println!(
-        "{:>4}  {:>19}  {:>19}  {:>8}  {:>5}  {:>4}  {:>8}  {:>8}",
-        "stop", "truth x, y (m)", "fix x, y (m)", "error m", "conf", "rank", "render s", "local. s"
+        "{:>4}  {:>19}  {:>19}  {:>8}  {:>5}  {:>4}  {:>4}  {:>8}  {:>8}",
+        "stop",
+        "truth x, y (m)",
+        "fix x, y (m)",
+        "error m",
+        "conf",
+        "win",
+        "cell",
+        "render s",
+        "local. s"
     );
     let mut rows = Vec::new();
     for q in &queries {
@@ -88,6 +114,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             q.y_m as f32,
         );
         let rank = rank_of(&loc.window_scores, tw).unwrap_or(usize::MAX);
+        let cell_rank = rank_of(&window_cell_scores(&loc), tw).unwrap_or(usize::MAX);
         let fix = (loc.fix.x_m as f64, loc.fix.y_m as f64);
         let err = ((fix.0 - q.x_m).powi(2) + (fix.1 - q.y_m).powi(2)).sqrt();
         println!(
@@ -132,19 +159,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             confidence: loc.fix.confidence as f64,
             on_border: loc.fix.on_border,
             true_window_rank: rank + 1,
+            true_cell_rank: cell_rank + 1,
             render_s,
             localize_s,
         });
     }
     let json = serde_json::json!({
-        "seed": a.seed, "matcher": name, "condition": a.condition.name(), "stops": rows,
+        "seed": a.seed, "matcher": name, "condition": a.condition.name(),
+        "reprojection": a.reprojection, "stops": rows,
     });
     write_atomic(
         &a.out.join("demo.json"),
         serde_json::to_string_pretty(&json)?.as_bytes(),
     )?;
     println!(
-        "rank = position of the true 50 m window among the study's 441; pictures: {} (map: heat = response, green x = truth, red ring = fix, orange = other candidates, blue + = prior, yellow = 5 best windows)",
+        "win = rank of the true 50 m window among the study's 441 (each scored at its position), cell = its rank by the best dense score in its 12.5 m cell; pictures: {} (map: heat = response, green x = truth, red ring = fix, orange = other candidates, blue + = prior, yellow = 5 best windows)",
         a.out.display()
     );
     Ok(())

@@ -8,3 +8,4 @@ pub mod generate;
 pub mod localize;
 pub mod map;
 pub mod render;
+pub mod results;

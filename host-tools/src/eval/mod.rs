@@ -21,9 +21,10 @@ use orbfix::matcher::{distance_weights, l1::L1, l2::L2, ncc::Ncc, Grid, Matcher,
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-/// Names of the matchers this build provides, best first for `demo`. The CNN matchers
+/// Names of the matchers reported, best first for `demo` (`ncc-hp2`: masked NCC after a
+/// 2 m masked high-pass; see `matcher_by_name` for the option grammar). The CNN matchers
 /// (`cnn`, `cnn-f32`) plug in here behind the same [`Matcher`] trait.
-pub const MATCHERS: &[&str] = &["ncc", "ncc-dist", "l1", "l2"];
+pub const MATCHERS: &[&str] = &["ncc-hp2", "ncc", "ncc-dist", "l1", "l2"];
 
 /// The matcher `demo` uses: the best one available.
 pub fn best_matcher() -> &'static str {
