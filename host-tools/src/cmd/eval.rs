@@ -96,13 +96,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 /// One line per matcher.
 pub fn print_table(out: &EvalOutput) {
     println!(
-        "{:<9} {:<9} {:>4} {:>6} {:>6} {:>7} {:>9} {:>8} {:>6} {:>6} {:>7}",
+        "{:<12} {:<9} {:>4} {:>6} {:>6} {:>6} {:>7} {:>7} {:>7} {:>9} {:>8} {:>6} {:>6} {:>7}",
         "matcher",
         "condition",
         "n",
         "R@1",
         "R@5",
         "R@10",
+        "dR@1",
+        "dR@5",
+        "dR@10",
         "median m",
         "p95 m",
         "AUC",
