@@ -2,7 +2,7 @@
 //! as a heat overlay, the truth, the prior, the fix and the top candidates (the study's
 //! Figure 7, with the dense response instead of 441 squares).
 //!
-//! Legend: heat = coarse matcher response (transparent = low, yellow = high); white square
+//! Legend: heat = coarse matcher response (transparent = mean or below, yellow = peak); white square
 //! = region of rover positions searched; green cross = truth; blue plus = prior; red ring =
 //! fix; orange rings = other candidates; thin yellow squares = the study's 5 best windows.
 
@@ -90,7 +90,7 @@ fn heat(t: f32) -> ([f32; 3], f32) {
         ((t - 0.5) * 2.0).clamp(0.0, 1.0) * 255.0,
         0.0,
     ];
-    (rgb, 0.65 * t * t)
+    (rgb, 0.7 * t.sqrt())
 }
 
 /// The map with the coarse response as a heat overlay and the markers of the legend.
