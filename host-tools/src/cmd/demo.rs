@@ -118,7 +118,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let fix = (loc.fix.x_m as f64, loc.fix.y_m as f64);
         let err = ((fix.0 - q.x_m).powi(2) + (fix.1 - q.y_m).powi(2)).sqrt();
         println!(
-            "{:>4}  {:>9.2},{:>9.2}  {:>9.2},{:>9.2}  {:>8.2}  {:>5.2}  {:>4}  {:>8.2}  {:>8.3}{}",
+            "{:>4}  {:>9.2},{:>9.2}  {:>9.2},{:>9.2}  {:>8.2}  {:>5.2}  {:>4}  {:>4}  {:>8.2}  {:>8.3}{}",
             q.id,
             q.x_m,
             q.y_m,
@@ -127,6 +127,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             err,
             loc.fix.confidence,
             rank + 1,
+            cell_rank + 1,
             render_s,
             localize_s,
             if loc.fix.on_border {
