@@ -228,9 +228,9 @@ impl GenerateConfig {
             az(&self.sun_map_azimuth, &mut rng),
         )?;
         // Round to what the manifest keeps so that a row read back renders the same.
-        let x = round_to(x, 1e-3);
-        let y = round_to(y, 1e-3);
-        let yaw = round_to(yaw, 1e-3);
+        let x = round_to(x, 3);
+        let y = round_to(y, 3);
+        let yaw = round_to(yaw, 3);
         let id = format!("{index:07}");
         let dir = format!("locations/{:04}", index / 1000);
         let views = VIEW_NAMES.map(|v| format!("{dir}/{id}_{v}.png"));
@@ -240,7 +240,7 @@ impl GenerateConfig {
             split,
             x_m: x,
             y_m: y,
-            ground_z_m: round_to(world.height_m(x, y), 1e-4),
+            ground_z_m: round_to(world.height_m(x, y), 4),
             yaw_deg: yaw,
             sun_view,
             sun_map,
@@ -254,8 +254,9 @@ impl GenerateConfig {
     }
 }
 
-fn round_to(v: f64, q: f64) -> f64 {
-    (v / q).round() * q
+/// Rounds to `decimals` places, giving the shortest decimal text in JSON.
+fn round_to(v: f64, decimals: usize) -> f64 {
+    format!("{v:.decimals$}").parse().unwrap_or(v)
 }
 
 /// SplitMix64-style mixing of a seed and a stream index.

@@ -2,7 +2,8 @@
 //! composite height function that cast shadows are traced over.
 
 use super::RenderOptions;
-use crate::world::{HeightGrid, World};
+use super::Surface;
+use crate::world::HeightGrid;
 use orbfix::geo::GeoRef;
 use rayon::prelude::*;
 
@@ -80,7 +81,7 @@ pub struct Terrain {
     pub levels: Vec<Level>,
 }
 
-fn sample_square(world: &World, cx: f64, cy: f64, half: f64, m: f64) -> Level {
+fn sample_square(world: &dyn Surface, cx: f64, cy: f64, half: f64, m: f64) -> Level {
     // Nodes snapped to the world lattice of spacing `m` (node centres at (k + 0.5) m),
     // one apron node beyond the square on each side.
     let c0 = ((cx - half) / m).floor() - 1.0;
@@ -124,7 +125,13 @@ impl Terrain {
     /// Levels around a rover at `(x_m, y_m)` for a camera of focal length `focal_px`:
     /// level 0 has `near_cell_m` cells out to where a cell projects to `lod_px_per_cell`
     /// pixels; each next level doubles cell size and extent, out to `max_range_m`.
-    pub fn around(world: &World, x_m: f64, y_m: f64, opts: &RenderOptions, focal_px: f64) -> Self {
+    pub fn around(
+        world: &dyn Surface,
+        x_m: f64,
+        y_m: f64,
+        opts: &RenderOptions,
+        focal_px: f64,
+    ) -> Self {
         let m0 = opts.near_cell_m;
         // Keep level 0 at least 4 m and at most 512 cells across.
         let half0 = (focal_px * m0 / opts.lod_px_per_cell).clamp(4.0, 256.0 * m0);
@@ -144,7 +151,7 @@ impl Terrain {
     /// Levels for an orthographic render of the raster `geo` (`w x h` pixels): level 0 has
     /// one node per pixel centre (plus an apron); level 1, coarser, reaches `reach_m` beyond
     /// it so that shadows cast from outside the raster are traced.
-    pub fn region(world: &World, geo: &GeoRef, w: u32, h: u32, reach_m: f64) -> Self {
+    pub fn region(world: &dyn Surface, geo: &GeoRef, w: u32, h: u32, reach_m: f64) -> Self {
         let m = geo.m_per_px as f64;
         let ox = geo.origin_x_m as f64;
         let oy = geo.origin_y_m as f64;
