@@ -218,13 +218,14 @@ impl GenerateConfig {
         let x = rng.random_range(z.x_min_m + margin..z.x_max_m - margin);
         let y = rng.random_range(z.y_min_m + margin..z.y_max_m - margin);
         let yaw = rng.random_range(0.0..360.0);
-        let az = |r: &DegRange, rng: &mut ChaCha8Rng| r.draw(rng).rem_euclid(360.0);
+        let az = |r: &DegRange, rng: &mut ChaCha8Rng| round_to(r.draw(rng), 3).rem_euclid(360.0);
+        let el = |r: &DegRange, rng: &mut ChaCha8Rng| round_to(r.draw(rng), 3);
         let sun_view = Sun::new(
-            self.sun_view_elevation.draw(&mut rng),
+            el(&self.sun_view_elevation, &mut rng),
             az(&self.sun_view_azimuth, &mut rng),
         )?;
         let sun_map = Sun::new(
-            self.sun_map_elevation.draw(&mut rng),
+            el(&self.sun_map_elevation, &mut rng),
             az(&self.sun_map_azimuth, &mut rng),
         )?;
         // Round to what the manifest keeps so that a row read back renders the same.
@@ -597,7 +598,8 @@ pub fn combine_shards(dir: &Path) -> anyhow::Result<usize> {
         counts
     );
     let n = counts.into_iter().next().unwrap_or(1);
-    let mut rows = Vec::new();
+    // Rows are copied verbatim (parsed only to check them), so no float is re-printed.
+    let mut lines: Vec<(String, String)> = Vec::new();
     let mut missing = Vec::new();
     for i in 0..n {
         let p = dir.join(Shard { index: i, count: n }.manifest_name());
@@ -605,24 +607,43 @@ pub fn combine_shards(dir: &Path) -> anyhow::Result<usize> {
             missing.push(format!("{i}/{n}"));
             continue;
         }
-        rows.extend(read_manifest(&p)?);
+        let text =
+            std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
+        for (k, l) in text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty())
+        {
+            let row: ManifestRow = serde_json::from_str(l).with_context(|| {
+                format!(
+                    "{} line {}: not a valid manifest row (truncated?)",
+                    p.display(),
+                    k + 1
+                )
+            })?;
+            lines.push((row.id, l.to_string()));
+        }
     }
     ensure!(
         missing.is_empty(),
         "shards not finished yet: {} (run them, then combine again)",
         missing.join(", ")
     );
+    lines.sort();
+    lines.dedup_by(|a, b| a.0 == b.0);
     ensure!(
-        rows.len() == info.total,
+        lines.len() == info.total,
         "the shard manifests hold {} locations, the dataset has {}",
-        rows.len(),
+        lines.len(),
         info.total
     );
-    write_atomic(
-        &dir.join("manifest.jsonl"),
-        manifest_text(&rows)?.as_bytes(),
-    )?;
-    Ok(rows.len())
+    let mut text = String::new();
+    for (_, l) in &lines {
+        text.push_str(l);
+        text.push('\n');
+    }
+    write_atomic(&dir.join("manifest.jsonl"), text.as_bytes())?;
+    Ok(lines.len())
 }
 
 fn read_info(dir: &Path) -> anyhow::Result<DatasetInfo> {
