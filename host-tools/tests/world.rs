@@ -474,6 +474,8 @@ fn bad_input_gives_errors_not_panics() {
     assert!(world.try_sample_grid(0.0, 0.0, 1.0, 0, 4).is_err());
     assert!(world.try_sample_grid(0.0, 0.0, 1.0, usize::MAX, 2).is_err());
     assert!(world.try_sample_grid(0.0, 0.0, 1.0, 4, 4).is_ok());
+    let huge = world.sample_grid(0.0, 0.0, 1.0, usize::MAX, 3);
+    assert_eq!((huge.nx, huge.ny, huge.height_m.len()), (0, 0, 0));
     let nan_grid = world.sample_grid(f64::NAN, 0.0, 1.0, 3, 3);
     assert!(nan_grid.height_m.iter().all(|&h| h == 0.0));
     assert!(world.craters_in(0.0, 0.0, 1e7, 1e7, 1.0).is_err());

@@ -437,8 +437,9 @@ impl World {
     /// Samples a north-up grid of `nx x ny` pixels of `m_per_px` metres whose north-west
     /// corner is `(origin_x_m, origin_y_m)`: pixel `(col, row)` is sampled at its centre
     /// `(origin_x_m + (col + 0.5) m_per_px, origin_y_m - (row + 0.5) m_per_px)`
-    /// (`docs/frames.md`). Rows in parallel (rayon). Empty when `nx` or `ny` is 0; see
-    /// [`World::try_sample_grid`] for a checked variant.
+    /// (`docs/frames.md`). Rows in parallel (rayon). Empty (`nx = ny = 0`) when `nx` or `ny`
+    /// is 0 or the grid would exceed [`MAX_GRID_PIXELS`]; non-finite pixel centres get
+    /// height 0 and `albedo_mean`. [`World::try_sample_grid`] reports such input as errors.
     pub fn sample_grid(
         &self,
         origin_x_m: f64,
@@ -447,7 +448,11 @@ impl World {
         nx: usize,
         ny: usize,
     ) -> HeightGrid {
-        let n = nx.saturating_mul(ny);
+        let (nx, ny) = match nx.checked_mul(ny) {
+            Some(n) if n <= MAX_GRID_PIXELS => (nx, ny),
+            _ => (0, 0),
+        };
+        let n = nx * ny;
         let mut grid = HeightGrid {
             origin_x_m,
             origin_y_m,
@@ -487,7 +492,7 @@ impl World {
     }
 
     /// [`World::sample_grid`] with its input checked: finite origin, positive finite
-    /// resolution, non-empty and at most 2^28 pixels.
+    /// resolution, non-empty and at most [`MAX_GRID_PIXELS`] pixels.
     pub fn try_sample_grid(
         &self,
         origin_x_m: f64,
@@ -507,7 +512,7 @@ impl World {
             )));
         }
         match nx.checked_mul(ny) {
-            Some(n) if n > 0 && n <= 1 << 28 => {}
+            Some(n) if n > 0 && n <= MAX_GRID_PIXELS => {}
             _ => {
                 return Err(WorldError::BadQuery(format!(
                     "grid of {nx} x {ny} pixels: need 1 ..= 2^28 pixels"
@@ -669,6 +674,9 @@ impl World {
         }
     }
 }
+
+/// Largest grid `sample_grid` samples: 2^28 pixels (2 GiB of `f32` height and albedo).
+pub const MAX_GRID_PIXELS: usize = 1 << 28;
 
 /// Largest side of the tiles `sample_grid` gathers features for, pixels.
 const TILE: usize = 16;
