@@ -5,4 +5,7 @@
 //! budget. Uses the `orbfix` core as a library; frames and units are those of the core
 //! (`docs/frames.md`).
 
+pub mod dataset;
+pub mod fsutil;
+pub mod render;
 pub mod world;
