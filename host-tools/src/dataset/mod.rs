@@ -20,9 +20,6 @@ pub const GENERATOR_VERSION: &str = "orbfix-generate/1";
 /// Names of the four views in dataset order.
 pub const VIEW_NAMES: [&str; 4] = ["front", "right", "rear", "left"];
 
-/// Distance kept between a location and its zone's edges, metres (room for a 300 m map).
-pub const ZONE_MARGIN_M: f64 = 160.0;
-
 /// Size presets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
@@ -212,11 +209,11 @@ impl GenerateConfig {
     /// The manifest row of location `index`: a pure function of the config and `index`.
     pub fn location(&self, world: &World, index: usize) -> anyhow::Result<ManifestRow> {
         let split = self.split_of(index);
-        let z = zones::zone(split);
+        // Inside the zone's location area: the whole 300 m map region stays in the zone.
+        let z = zones::zone(split).location_area();
         let mut rng = ChaCha8Rng::seed_from_u64(mix(self.seed, index as u64));
-        let margin = ZONE_MARGIN_M.min(0.25 * (z.x_max_m - z.x_min_m).min(z.y_max_m - z.y_min_m));
-        let x = rng.random_range(z.x_min_m + margin..z.x_max_m - margin);
-        let y = rng.random_range(z.y_min_m + margin..z.y_max_m - margin);
+        let x = rng.random_range(z.x_min_m..z.x_max_m);
+        let y = rng.random_range(z.y_min_m..z.y_max_m);
         let yaw = rng.random_range(0.0..360.0);
         let az = |r: &DegRange, rng: &mut ChaCha8Rng| round_to(r.draw(rng), 3).rem_euclid(360.0);
         let el = |r: &DegRange, rng: &mut ChaCha8Rng| round_to(r.draw(rng), 3);
