@@ -5,5 +5,8 @@
 //! budget. Uses the `orbfix` core as a library; frames and units are those of the core
 //! (`docs/frames.md`).
 
+pub mod dataset;
+pub mod fsutil;
+pub mod render;
 pub mod reproject_ref;
 pub mod world;

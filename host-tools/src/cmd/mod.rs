@@ -1,0 +1,5 @@
+//! Subcommands of `orbfix`, one module each.
+
+pub mod bench;
+pub mod generate;
+pub mod render;
