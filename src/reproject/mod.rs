@@ -28,9 +28,11 @@
 
 mod apply;
 mod lut;
+mod rings;
 
 pub use apply::{classify_frame, ApplyReport, FrameStatus, BLACK_LEVEL, SATURATED_LEVEL};
 pub use lut::{BuildStats, Lut};
+pub use rings::{equalize_rings, MAX_RINGS};
 
 use crate::camera::{CameraError, CameraParams, RoverPose};
 use crate::image::ImageView;

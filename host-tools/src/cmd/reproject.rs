@@ -5,7 +5,9 @@ use anyhow::{bail, ensure, Context, Result};
 use image::GrayImage;
 use orbfix::camera::RoverPose;
 use orbfix::image::ImageView;
-use orbfix::reproject::{table_len, Cell, FrameStatus, GridSpec, Lut, Tap, DEFAULT_EXTRA};
+use orbfix::reproject::{
+    equalize_rings, table_len, Cell, FrameStatus, GridSpec, Lut, Tap, DEFAULT_EXTRA,
+};
 use orbfix_host::dataset::Dataset;
 use orbfix_host::fsutil::write_png;
 use std::path::PathBuf;
@@ -38,6 +40,10 @@ pub struct Args {
     /// Ground distance beyond which cells are "no data", metres (default: none).
     #[arg(long)]
     max_range: Option<f32>,
+    /// Equalize the brightness of 1 m range rings (core `equalize_rings`) before writing:
+    /// removes the oblique-view brightening with distance that the orbital view lacks.
+    #[arg(long)]
+    equalize: bool,
     /// Treat a view as missing (repeatable): front, right, rear or left.
     #[arg(long, value_enum)]
     drop: Vec<ViewName>,
@@ -150,6 +156,13 @@ pub fn run(args: Args) -> Result<()> {
         .apply(&frames, &mut out, &mut mask)
         .map_err(|e| anyhow::anyhow!("reprojecting: {e:?}"))?;
     let t_apply = t1.elapsed();
+    let ring_cells = ((1.0 / res).round() as u32).max(1);
+    let out_raw = out.clone();
+    let mut equalized = out.clone();
+    equalize_rings(&mut equalized, &mask, n, ring_cells);
+    if args.equalize {
+        out.clone_from(&equalized);
+    }
 
     let top = GrayImage::from_raw(n as u32, n as u32, out.clone())
         .context("internal: top-down buffer size")?;
@@ -188,10 +201,12 @@ pub fn run(args: Args) -> Result<()> {
         let sat = ds
             .load_satellite(row)
             .with_context(|| format!("loading the satellite crop of {}", row.id))?;
-        match masked_ncc(&out, sat.as_raw(), &mask) {
-            Some(c) => println!("NCC with the satellite crop over valid cells: {c:.4}"),
-            None => println!("NCC with the satellite crop: undefined (no valid texture)"),
-        }
+        let fmt = |c: Option<f64>| c.map_or("undefined".to_string(), |c| format!("{c:.4}"));
+        println!(
+            "NCC with the satellite crop over valid cells: {} raw, {} with 1 m range rings equalized",
+            fmt(masked_ncc(&out_raw, sat.as_raw(), &mask)),
+            fmt(masked_ncc(&equalized, sat.as_raw(), &mask))
+        );
     }
     Ok(())
 }
