@@ -204,13 +204,13 @@ impl Lut<'_> {
                     out.get_mut(i..end),
                     mask.get_mut(i..end),
                 ) {
-                    for ((c, o), m) in cs.iter().zip(os.iter_mut()).zip(ms.iter_mut()) {
+                    ms.fill(255);
+                    for (c, o) in cs.iter().zip(os.iter_mut()) {
                         // Safety: the table invariant (Lut::build) with the size and stride
                         // checked in `apply` keeps `off + stride + 1` inside the frame; all
                         // cells of a run are in the view of `base`.
                         let a = unsafe { tap_q10(base, (c.off & OFF_MASK) as usize, stride, c.wi) };
                         *o = ((a + ROUND10) >> 10) as u8;
-                        *m = 255;
                     }
                     i = end;
                     continue;
