@@ -20,9 +20,6 @@ pub const GENERATOR_VERSION: &str = "orbfix-generate/1";
 /// Names of the four views in dataset order.
 pub const VIEW_NAMES: [&str; 4] = ["front", "right", "rear", "left"];
 
-/// Distance kept between a location and its zone's edges, metres (room for a 300 m map).
-pub const ZONE_MARGIN_M: f64 = 160.0;
-
 /// Size presets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
@@ -212,11 +209,11 @@ impl GenerateConfig {
     /// The manifest row of location `index`: a pure function of the config and `index`.
     pub fn location(&self, world: &World, index: usize) -> anyhow::Result<ManifestRow> {
         let split = self.split_of(index);
-        let z = zones::zone(split);
+        // Inside the zone's location area: the whole 300 m map region stays in the zone.
+        let z = zones::zone(split).location_area();
         let mut rng = ChaCha8Rng::seed_from_u64(mix(self.seed, index as u64));
-        let margin = ZONE_MARGIN_M.min(0.25 * (z.x_max_m - z.x_min_m).min(z.y_max_m - z.y_min_m));
-        let x = rng.random_range(z.x_min_m + margin..z.x_max_m - margin);
-        let y = rng.random_range(z.y_min_m + margin..z.y_max_m - margin);
+        let x = rng.random_range(z.x_min_m..z.x_max_m);
+        let y = rng.random_range(z.y_min_m..z.y_max_m);
         let yaw = rng.random_range(0.0..360.0);
         let az = |r: &DegRange, rng: &mut ChaCha8Rng| round_to(r.draw(rng), 3).rem_euclid(360.0);
         let el = |r: &DegRange, rng: &mut ChaCha8Rng| round_to(r.draw(rng), 3);
@@ -430,11 +427,12 @@ pub fn render_location(
     cfg: &GenerateConfig,
     dir: &Path,
     row: &ManifestRow,
+    cache: Option<&render::terrain::TileCache>,
 ) -> anyhow::Result<()> {
     let pose = render::ground_pose(world, row.x_m, row.y_m, row.yaw_deg);
     let mut opts = cfg.render;
     opts.noise_seed = mix(cfg.seed ^ 0x006E_6F69_7365, row.index as u64);
-    let set = render::render_views_with_range(world, &pose, row.sun_view, &opts)
+    let set = render::render_views_cached(world, &pose, row.sun_view, &opts, cache)
         .with_context(|| format!("rendering views of location {}", row.id))?;
     let (sat, _) = render::render_satellite_crop(
         world,
@@ -535,13 +533,15 @@ pub fn generate(
         )
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
+    // Far terrain shared between locations (about 64 M nodes, 512 MB at most).
+    let cache = render::terrain::TileCache::new(1 << 26);
     let rendered = AtomicUsize::new(0);
     let skipped = AtomicUsize::new(0);
     rows.par_iter().try_for_each(|row| -> anyhow::Result<()> {
         if location_complete(dir, cfg, row) {
             skipped.fetch_add(1, Ordering::Relaxed);
         } else {
-            render_location(&world, cfg, dir, row)?;
+            render_location(&world, cfg, dir, row, Some(&cache))?;
             rendered.fetch_add(1, Ordering::Relaxed);
         }
         bar.inc(1);
