@@ -32,6 +32,8 @@ enum Command {
     BenchLocalize(cmd::bench_localize::Args),
     /// Write docs/results.md from the reports of scripts/results.sh.
     Results(cmd::results::Args),
+    /// Reproject a dataset location's four views to a north-up top-down image (core LUT).
+    Reproject(cmd::reproject::Args),
     /// Print the terrain elevation (metres) at a world point of the built-in world.
     Elevation {
         /// World seed.
@@ -58,6 +60,7 @@ fn main() -> anyhow::Result<()> {
         Command::Map(a) => cmd::map::run(a)?,
         Command::BenchLocalize(a) => cmd::bench_localize::run(a)?,
         Command::Results(a) => cmd::results::run(a)?,
+        Command::Reproject(a) => cmd::reproject::run(a)?,
         Command::Elevation { seed, x, y } => {
             let world = orbfix_host::world::World::new(seed);
             println!("{:.3}", world.height_m(x, y));

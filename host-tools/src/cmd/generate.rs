@@ -19,19 +19,19 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// View size WxH in pixels (overrides the preset), e.g. 640x360; up to 1920x1080 and beyond.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     size: Option<String>,
     /// Sun elevation of the ground views, degrees: A or a range A..B drawn per location.
-    #[arg(long, default_value = "30")]
+    #[arg(long, default_value = "30", allow_hyphen_values = true)]
     sun_elevation: String,
     /// Sun azimuth of the ground views, degrees clockwise from north: A or A..B.
-    #[arg(long, default_value = "135")]
+    #[arg(long, default_value = "135", allow_hyphen_values = true)]
     sun_azimuth: String,
     /// Sun elevation of the satellite crops (default: as --sun-elevation, drawn separately).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     map_sun_elevation: Option<String>,
     /// Sun azimuth of the satellite crops (default: as --sun-azimuth, drawn separately).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     map_sun_azimuth: Option<String>,
     /// Zero relief with the same albedo texture.
     #[arg(long)]

@@ -8,4 +8,5 @@ pub mod generate;
 pub mod localize;
 pub mod map;
 pub mod render;
+pub mod reproject;
 pub mod results;

@@ -20,9 +20,6 @@ pub const GENERATOR_VERSION: &str = "orbfix-generate/1";
 /// Names of the four views in dataset order.
 pub const VIEW_NAMES: [&str; 4] = ["front", "right", "rear", "left"];
 
-/// Distance kept between a location and its zone's edges, metres (room for a 300 m map).
-pub const ZONE_MARGIN_M: f64 = 160.0;
-
 /// Size presets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
@@ -212,25 +209,26 @@ impl GenerateConfig {
     /// The manifest row of location `index`: a pure function of the config and `index`.
     pub fn location(&self, world: &World, index: usize) -> anyhow::Result<ManifestRow> {
         let split = self.split_of(index);
-        let z = zones::zone(split);
+        // Inside the zone's location area: the whole 300 m map region stays in the zone.
+        let z = zones::zone(split).location_area();
         let mut rng = ChaCha8Rng::seed_from_u64(mix(self.seed, index as u64));
-        let margin = ZONE_MARGIN_M.min(0.25 * (z.x_max_m - z.x_min_m).min(z.y_max_m - z.y_min_m));
-        let x = rng.random_range(z.x_min_m + margin..z.x_max_m - margin);
-        let y = rng.random_range(z.y_min_m + margin..z.y_max_m - margin);
+        let x = rng.random_range(z.x_min_m..z.x_max_m);
+        let y = rng.random_range(z.y_min_m..z.y_max_m);
         let yaw = rng.random_range(0.0..360.0);
-        let az = |r: &DegRange, rng: &mut ChaCha8Rng| r.draw(rng).rem_euclid(360.0);
+        let az = |r: &DegRange, rng: &mut ChaCha8Rng| round_to(r.draw(rng), 3).rem_euclid(360.0);
+        let el = |r: &DegRange, rng: &mut ChaCha8Rng| round_to(r.draw(rng), 3);
         let sun_view = Sun::new(
-            self.sun_view_elevation.draw(&mut rng),
+            el(&self.sun_view_elevation, &mut rng),
             az(&self.sun_view_azimuth, &mut rng),
         )?;
         let sun_map = Sun::new(
-            self.sun_map_elevation.draw(&mut rng),
+            el(&self.sun_map_elevation, &mut rng),
             az(&self.sun_map_azimuth, &mut rng),
         )?;
         // Round to what the manifest keeps so that a row read back renders the same.
-        let x = round_to(x, 1e-3);
-        let y = round_to(y, 1e-3);
-        let yaw = round_to(yaw, 1e-3);
+        let x = round_to(x, 3);
+        let y = round_to(y, 3);
+        let yaw = round_to(yaw, 3);
         let id = format!("{index:07}");
         let dir = format!("locations/{:04}", index / 1000);
         let views = VIEW_NAMES.map(|v| format!("{dir}/{id}_{v}.png"));
@@ -240,7 +238,7 @@ impl GenerateConfig {
             split,
             x_m: x,
             y_m: y,
-            ground_z_m: round_to(world.height_m(x, y), 1e-4),
+            ground_z_m: round_to(world.height_m(x, y), 4),
             yaw_deg: yaw,
             sun_view,
             sun_map,
@@ -254,8 +252,9 @@ impl GenerateConfig {
     }
 }
 
-fn round_to(v: f64, q: f64) -> f64 {
-    (v / q).round() * q
+/// Rounds to `decimals` places, giving the shortest decimal text in JSON.
+fn round_to(v: f64, decimals: usize) -> f64 {
+    format!("{v:.decimals$}").parse().unwrap_or(v)
 }
 
 /// SplitMix64-style mixing of a seed and a stream index.
@@ -428,11 +427,12 @@ pub fn render_location(
     cfg: &GenerateConfig,
     dir: &Path,
     row: &ManifestRow,
+    cache: Option<&render::terrain::TileCache>,
 ) -> anyhow::Result<()> {
     let pose = render::ground_pose(world, row.x_m, row.y_m, row.yaw_deg);
     let mut opts = cfg.render;
     opts.noise_seed = mix(cfg.seed ^ 0x006E_6F69_7365, row.index as u64);
-    let set = render::render_views_with_range(world, &pose, row.sun_view, &opts)
+    let set = render::render_views_cached(world, &pose, row.sun_view, &opts, cache)
         .with_context(|| format!("rendering views of location {}", row.id))?;
     let (sat, _) = render::render_satellite_crop(
         world,
@@ -533,13 +533,15 @@ pub fn generate(
         )
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
+    // Far terrain shared between locations (about 64 M nodes, 512 MB at most).
+    let cache = render::terrain::TileCache::new(1 << 26);
     let rendered = AtomicUsize::new(0);
     let skipped = AtomicUsize::new(0);
     rows.par_iter().try_for_each(|row| -> anyhow::Result<()> {
         if location_complete(dir, cfg, row) {
             skipped.fetch_add(1, Ordering::Relaxed);
         } else {
-            render_location(&world, cfg, dir, row)?;
+            render_location(&world, cfg, dir, row, Some(&cache))?;
             rendered.fetch_add(1, Ordering::Relaxed);
         }
         bar.inc(1);
@@ -596,7 +598,8 @@ pub fn combine_shards(dir: &Path) -> anyhow::Result<usize> {
         counts
     );
     let n = counts.into_iter().next().unwrap_or(1);
-    let mut rows = Vec::new();
+    // Rows are copied verbatim (parsed only to check them), so no float is re-printed.
+    let mut lines: Vec<(String, String)> = Vec::new();
     let mut missing = Vec::new();
     for i in 0..n {
         let p = dir.join(Shard { index: i, count: n }.manifest_name());
@@ -604,24 +607,43 @@ pub fn combine_shards(dir: &Path) -> anyhow::Result<usize> {
             missing.push(format!("{i}/{n}"));
             continue;
         }
-        rows.extend(read_manifest(&p)?);
+        let text =
+            std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
+        for (k, l) in text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty())
+        {
+            let row: ManifestRow = serde_json::from_str(l).with_context(|| {
+                format!(
+                    "{} line {}: not a valid manifest row (truncated?)",
+                    p.display(),
+                    k + 1
+                )
+            })?;
+            lines.push((row.id, l.to_string()));
+        }
     }
     ensure!(
         missing.is_empty(),
         "shards not finished yet: {} (run them, then combine again)",
         missing.join(", ")
     );
+    lines.sort();
+    lines.dedup_by(|a, b| a.0 == b.0);
     ensure!(
-        rows.len() == info.total,
+        lines.len() == info.total,
         "the shard manifests hold {} locations, the dataset has {}",
-        rows.len(),
+        lines.len(),
         info.total
     );
-    write_atomic(
-        &dir.join("manifest.jsonl"),
-        manifest_text(&rows)?.as_bytes(),
-    )?;
-    Ok(rows.len())
+    let mut text = String::new();
+    for (_, l) in &lines {
+        text.push_str(l);
+        text.push('\n');
+    }
+    write_atomic(&dir.join("manifest.jsonl"), text.as_bytes())?;
+    Ok(lines.len())
 }
 
 fn read_info(dir: &Path) -> anyhow::Result<DatasetInfo> {

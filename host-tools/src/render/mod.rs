@@ -16,7 +16,7 @@ pub mod raster;
 pub mod shadow;
 pub mod terrain;
 
-use crate::world::World;
+use crate::world::{HeightGrid, World};
 use image::GrayImage;
 use orbfix::camera::{Camera, CameraError, CameraParams, RoverPose, View};
 use orbfix::geo::GeoRef;
@@ -26,6 +26,63 @@ use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
 pub use ortho::render_ortho;
+
+/// What the renderer draws: a height field with an albedo texture. [`World`] is one; tests
+/// use their own (e.g. a flat plane with a bright marker).
+pub trait Surface: Sync {
+    /// Elevation at `(x, y)`, metres.
+    fn height_m(&self, x: f64, y: f64) -> f64;
+    /// Normal albedo at `(x, y)`, 0..1.
+    fn albedo(&self, x: f64, y: f64) -> f64;
+    /// Heights and albedo on a north-up grid (conventions of [`World::sample_grid`]).
+    fn sample_grid(
+        &self,
+        origin_x_m: f64,
+        origin_y_m: f64,
+        m_per_px: f64,
+        nx: usize,
+        ny: usize,
+    ) -> HeightGrid {
+        let mut height_m = Vec::with_capacity(nx * ny);
+        let mut albedo = Vec::with_capacity(nx * ny);
+        for r in 0..ny {
+            let y = origin_y_m - (r as f64 + 0.5) * m_per_px;
+            for c in 0..nx {
+                let x = origin_x_m + (c as f64 + 0.5) * m_per_px;
+                height_m.push(self.height_m(x, y) as f32);
+                albedo.push(self.albedo(x, y) as f32);
+            }
+        }
+        HeightGrid {
+            origin_x_m,
+            origin_y_m,
+            m_per_px,
+            nx,
+            ny,
+            height_m,
+            albedo,
+        }
+    }
+}
+
+impl Surface for World {
+    fn height_m(&self, x: f64, y: f64) -> f64 {
+        World::height_m(self, x, y)
+    }
+    fn albedo(&self, x: f64, y: f64) -> f64 {
+        World::albedo(self, x, y)
+    }
+    fn sample_grid(
+        &self,
+        origin_x_m: f64,
+        origin_y_m: f64,
+        m_per_px: f64,
+        nx: usize,
+        ny: usize,
+    ) -> HeightGrid {
+        World::sample_grid(self, origin_x_m, origin_y_m, m_per_px, nx, ny)
+    }
+}
 
 /// Errors of the renderer; each says what was wrong.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -206,14 +263,14 @@ impl Default for RenderOptions {
         Self {
             camera: CameraParams::default().into(),
             photometry: Photometry::LunarLambert { weight: 0.5 },
-            exposure: 5.0,
+            exposure: 3.5,
             gamma: 2.2,
             ambient: 0.02,
             noise_sigma: 0.0,
             noise_seed: 0,
             near_cell_m: 0.1,
-            lod_px_per_cell: 2.0,
-            max_range_m: 1500.0,
+            lod_px_per_cell: 3.0,
+            max_range_m: 1000.0,
             shadow_reach_m: 300.0,
         }
     }
@@ -324,11 +381,21 @@ impl RenderOptions {
 
 /// The rover standing level on the terrain at `(x_m, y_m)` with a heading (degrees clockwise
 /// from north); `ground_z_m` is the terrain height there.
-pub fn ground_pose(world: &World, x_m: f64, y_m: f64, heading_deg: f64) -> RoverPose {
+pub fn ground_pose(world: &dyn Surface, x_m: f64, y_m: f64, heading_deg: f64) -> RoverPose {
     RoverPose::level(
         x_m as f32,
         y_m as f32,
         world.height_m(x_m, y_m) as f32,
+        heading_deg as f32,
+    )
+}
+
+/// As [`ground_pose`] on any [`Surface`].
+pub fn ground_pose_on(surface: &dyn Surface, x_m: f64, y_m: f64, heading_deg: f64) -> RoverPose {
+    RoverPose::level(
+        x_m as f32,
+        y_m as f32,
+        surface.height_m(x_m, y_m) as f32,
         heading_deg as f32,
     )
 }
@@ -347,7 +414,7 @@ pub struct ViewSet {
 
 /// Renders the four ground views (front, right, rear, left) of a rover.
 pub fn render_views(
-    world: &World,
+    world: &dyn Surface,
     pose: &RoverPose,
     sun: Sun,
     opts: &RenderOptions,
@@ -357,10 +424,23 @@ pub fn render_views(
 
 /// Renders the four ground views with their range images.
 pub fn render_views_with_range(
-    world: &World,
+    world: &dyn Surface,
     pose: &RoverPose,
     sun: Sun,
     opts: &RenderOptions,
+) -> Result<ViewSet, RenderError> {
+    render_views_cached(world, pose, sun, opts, None)
+}
+
+/// As [`render_views_with_range`], sharing far terrain between calls through `cache` (one
+/// cache per world; results are identical with or without it). Use it when rendering many
+/// locations of one world: far terrain is then sampled once.
+pub fn render_views_cached(
+    world: &dyn Surface,
+    pose: &RoverPose,
+    sun: Sun,
+    opts: &RenderOptions,
+    cache: Option<&terrain::TileCache>,
 ) -> Result<ViewSet, RenderError> {
     opts.validate()?;
     sun.validate()?;
@@ -372,12 +452,21 @@ pub fn render_views_with_range(
         Camera::new(&params, pose, View::Rear)?,
         Camera::new(&params, pose, View::Left)?,
     ];
-    let terrain = terrain::Terrain::around(
+    let own;
+    let cache = match cache {
+        Some(c) => c,
+        None => {
+            own = terrain::TileCache::new(1 << 22);
+            &own
+        }
+    };
+    let terrain = terrain::Terrain::around_cached(
         world,
         pose.x_m as f64,
         pose.y_m as f64,
         opts,
         params.focal_px() as f64,
+        Some(cache),
     );
     let shadow = shadow::ShadowField::build(&terrain, &sun, opts.shadow_reach_m);
     let attrs = raster::NodeAttrs::compute(&terrain, &shadow);
@@ -411,7 +500,7 @@ pub fn render_views_with_range(
 
 /// A satellite crop `size_px x size_px` centred on `(x_m, y_m)` (`docs/frames.md`).
 pub fn render_satellite_crop(
-    world: &World,
+    world: &dyn Surface,
     x_m: f64,
     y_m: f64,
     size_px: u32,

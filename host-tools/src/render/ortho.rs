@@ -2,8 +2,8 @@
 
 use super::shadow::ShadowField;
 use super::terrain::Terrain;
+use super::Surface;
 use super::{RenderError, RenderOptions, Sun};
-use crate::world::World;
 use image::GrayImage;
 use orbfix::geo::GeoRef;
 use rayon::prelude::*;
@@ -15,7 +15,7 @@ pub const MAX_ORTHO_PX: u32 = 16384;
 /// straight above, under `sun`, with the lighting of the ground views. Each pixel shows the
 /// terrain below its centre (heights, normals and albedo sampled at pixel centres).
 pub fn render_ortho(
-    world: &World,
+    world: &dyn Surface,
     geo: &GeoRef,
     w: u32,
     h: u32,
