@@ -106,7 +106,9 @@ enum What {
         #[arg(long)]
         out: PathBuf,
     },
-    /// The overview figure of docs/: four views, satellite crop and a 300 m map region.
+    /// The overview figure of docs/: the four views (front, right / rear, left), the 50 m
+    /// satellite crop (0.25 m/px, shown 2x) and the 300 m map region around it (0.5 m/px,
+    /// the crop outlined).
     Figure {
         #[command(flatten)]
         common: Common,
@@ -276,15 +278,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let pose = render::ground_pose(&world, x, y, 0.0);
             let views = render::render_views(&world, &pose, sun, &opts)?;
             let (sat, _) = render::render_satellite_crop(&world, x, y, 200, 0.25, sun, &opts)?;
-            // 300 m map at 1 m/px (the figure's size), the crop's square in its centre.
-            let geo = GeoRef::centred(x as f32, y as f32, 300, 300, 1.0)
+            // 300 m map at 0.5 m/px, the crop's 50 m square outlined in its centre.
+            let geo = GeoRef::centred(x as f32, y as f32, 600, 600, 0.5)
                 .map_err(|e| anyhow::anyhow!("bad map georeference: {e:?}"))?;
-            let mut map = render::render_ortho(&world, &geo, 300, 300, sun, &opts)?;
-            for k in 125..=175u32 {
-                for (a, b) in [(k, 125), (k, 175), (125, k), (175, k)] {
+            let mut map = render::render_ortho(&world, &geo, 600, 600, sun, &opts)?;
+            for k in 250..=350u32 {
+                for (a, b) in [(k, 250), (k, 350), (250, k), (350, k)] {
                     map.put_pixel(a, b, image::Luma([255]));
                 }
             }
+            let sat = image::imageops::resize(&sat, 400, 400, image::imageops::FilterType::Nearest);
             let top = row_of(&[&views[0], &views[1]], 4);
             let mid = row_of(&[&views[2], &views[3]], 4);
             let bottom = row_of(&[&sat, &map], 4);

@@ -430,11 +430,12 @@ pub fn render_location(
     cfg: &GenerateConfig,
     dir: &Path,
     row: &ManifestRow,
+    cache: Option<&render::terrain::TileCache>,
 ) -> anyhow::Result<()> {
     let pose = render::ground_pose(world, row.x_m, row.y_m, row.yaw_deg);
     let mut opts = cfg.render;
     opts.noise_seed = mix(cfg.seed ^ 0x006E_6F69_7365, row.index as u64);
-    let set = render::render_views_with_range(world, &pose, row.sun_view, &opts)
+    let set = render::render_views_cached(world, &pose, row.sun_view, &opts, cache)
         .with_context(|| format!("rendering views of location {}", row.id))?;
     let (sat, _) = render::render_satellite_crop(
         world,
@@ -535,13 +536,15 @@ pub fn generate(
         )
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
+    // Far terrain shared between locations (about 64 M nodes, 512 MB at most).
+    let cache = render::terrain::TileCache::new(1 << 26);
     let rendered = AtomicUsize::new(0);
     let skipped = AtomicUsize::new(0);
     rows.par_iter().try_for_each(|row| -> anyhow::Result<()> {
         if location_complete(dir, cfg, row) {
             skipped.fetch_add(1, Ordering::Relaxed);
         } else {
-            render_location(&world, cfg, dir, row)?;
+            render_location(&world, cfg, dir, row, Some(&cache))?;
             rendered.fetch_add(1, Ordering::Relaxed);
         }
         bar.inc(1);

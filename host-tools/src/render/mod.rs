@@ -263,14 +263,14 @@ impl Default for RenderOptions {
         Self {
             camera: CameraParams::default().into(),
             photometry: Photometry::LunarLambert { weight: 0.5 },
-            exposure: 5.0,
+            exposure: 3.5,
             gamma: 2.2,
             ambient: 0.02,
             noise_sigma: 0.0,
             noise_seed: 0,
             near_cell_m: 0.1,
-            lod_px_per_cell: 2.0,
-            max_range_m: 1500.0,
+            lod_px_per_cell: 3.0,
+            max_range_m: 1000.0,
             shadow_reach_m: 300.0,
         }
     }
@@ -429,6 +429,19 @@ pub fn render_views_with_range(
     sun: Sun,
     opts: &RenderOptions,
 ) -> Result<ViewSet, RenderError> {
+    render_views_cached(world, pose, sun, opts, None)
+}
+
+/// As [`render_views_with_range`], sharing far terrain between calls through `cache` (one
+/// cache per world; results are identical with or without it). Use it when rendering many
+/// locations of one world: far terrain is then sampled once.
+pub fn render_views_cached(
+    world: &dyn Surface,
+    pose: &RoverPose,
+    sun: Sun,
+    opts: &RenderOptions,
+    cache: Option<&terrain::TileCache>,
+) -> Result<ViewSet, RenderError> {
     opts.validate()?;
     sun.validate()?;
     pose.validate()?;
@@ -439,12 +452,21 @@ pub fn render_views_with_range(
         Camera::new(&params, pose, View::Rear)?,
         Camera::new(&params, pose, View::Left)?,
     ];
-    let terrain = terrain::Terrain::around(
+    let own;
+    let cache = match cache {
+        Some(c) => c,
+        None => {
+            own = terrain::TileCache::new(1 << 22);
+            &own
+        }
+    };
+    let terrain = terrain::Terrain::around_cached(
         world,
         pose.x_m as f64,
         pose.y_m as f64,
         opts,
         params.focal_px() as f64,
+        Some(cache),
     );
     let shadow = shadow::ShadowField::build(&terrain, &sun, opts.shadow_reach_m);
     let attrs = raster::NodeAttrs::compute(&terrain, &shadow);

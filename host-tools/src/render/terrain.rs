@@ -81,7 +81,44 @@ pub struct Terrain {
     pub levels: Vec<Level>,
 }
 
-fn sample_square(world: &dyn Surface, cx: f64, cy: f64, half: f64, m: f64) -> Level {
+/// Samples `nx x ny` nodes at spacing `m` from NW corner `(ox, oy)`, in parallel row bands.
+fn sample_block(world: &dyn Surface, ox: f64, oy: f64, m: f64, nx: usize, ny: usize) -> HeightGrid {
+    let band = 32usize;
+    let bands: Vec<HeightGrid> = (0..ny.div_ceil(band))
+        .into_par_iter()
+        .map(|b| {
+            let rows = band.min(ny - b * band);
+            world.sample_grid(ox, oy - (b * band) as f64 * m, m, nx, rows)
+        })
+        .collect();
+    let mut height_m = Vec::with_capacity(nx * ny);
+    let mut albedo = Vec::with_capacity(nx * ny);
+    for g in bands {
+        height_m.extend_from_slice(&g.height_m);
+        albedo.extend_from_slice(&g.albedo);
+    }
+    HeightGrid {
+        origin_x_m: ox,
+        origin_y_m: oy,
+        m_per_px: m,
+        nx,
+        ny,
+        height_m,
+        albedo,
+    }
+}
+
+/// A square level of spacing `m` around `(cx, cy)`. With `hole` (the finer level's square),
+/// nodes more than 3 nodes inside the hole are not sampled (left at 0): nothing reads them,
+/// since the finer level covers that area and only one cell of overlap is drawn.
+fn sample_square(
+    world: &dyn Surface,
+    cx: f64,
+    cy: f64,
+    half: f64,
+    m: f64,
+    hole: Option<[f64; 4]>,
+) -> Level {
     // Nodes snapped to the world lattice of spacing `m` (node centres at (k + 0.5) m),
     // one apron node beyond the square on each side.
     let c0 = ((cx - half) / m).floor() - 1.0;
@@ -92,31 +129,56 @@ fn sample_square(world: &dyn Surface, cx: f64, cy: f64, half: f64, m: f64) -> Le
     let ny = (r0 - r1) as usize;
     let origin_x = c0 * m;
     let origin_y = r0 * m;
-    // Sample in parallel bands of rows, each band a world grid call.
-    let band = 32usize;
-    let bands: Vec<HeightGrid> = (0..ny.div_ceil(band))
-        .into_par_iter()
-        .map(|b| {
-            let rows = band.min(ny - b * band);
-            world.sample_grid(origin_x, origin_y - (b * band) as f64 * m, m, nx, rows)
-        })
-        .collect();
-    let mut height_m = Vec::with_capacity(nx * ny);
-    let mut albedo = Vec::with_capacity(nx * ny);
-    for g in bands {
-        height_m.extend_from_slice(&g.height_m);
-        albedo.extend_from_slice(&g.albedo);
+    let mut grid = HeightGrid {
+        origin_x_m: origin_x,
+        origin_y_m: origin_y,
+        m_per_px: m,
+        nx,
+        ny,
+        height_m: vec![0.0; nx * ny],
+        albedo: vec![0.0; nx * ny],
+    };
+    // Node index ranges [hc0, hc1) x [hr0, hr1) left unsampled.
+    let (hc0, hc1, hr0, hr1) = match hole {
+        Some(h) => {
+            let col = |x: f64| ((x - origin_x) / m - 0.5).max(0.0);
+            let row = |y: f64| ((origin_y - y) / m - 0.5).max(0.0);
+            let hc0 = (col(h[0]).ceil() as usize + 3).min(nx);
+            let hc1 = (col(h[2]).floor() as usize).saturating_sub(3).max(hc0);
+            let hr0 = (row(h[3]).ceil() as usize + 3).min(ny);
+            let hr1 = (row(h[1]).floor() as usize).saturating_sub(3).max(hr0);
+            (hc0, hc1, hr0, hr1)
+        }
+        None => (0, 0, 0, 0),
+    };
+    let mut put = |c0: usize, r0: usize, w: usize, h: usize| {
+        if w == 0 || h == 0 {
+            return;
+        }
+        let b = sample_block(
+            world,
+            origin_x + c0 as f64 * m,
+            origin_y - r0 as f64 * m,
+            m,
+            w,
+            h,
+        );
+        for r in 0..h {
+            let dst = (r0 + r) * nx + c0;
+            grid.height_m[dst..dst + w].copy_from_slice(&b.height_m[r * w..(r + 1) * w]);
+            grid.albedo[dst..dst + w].copy_from_slice(&b.albedo[r * w..(r + 1) * w]);
+        }
+    };
+    if hc1 > hc0 && hr1 > hr0 {
+        put(0, 0, nx, hr0); // north band
+        put(0, hr0, hc0, hr1 - hr0); // west
+        put(hc1, hr0, nx - hc1, hr1 - hr0); // east
+        put(0, hr1, nx, ny - hr1); // south band
+    } else {
+        put(0, 0, nx, ny);
     }
     Level {
-        grid: HeightGrid {
-            origin_x_m: origin_x,
-            origin_y_m: origin_y,
-            m_per_px: m,
-            nx,
-            ny,
-            height_m,
-            albedo,
-        },
+        grid,
         bounds: [cx - half, cy - half, cx + half, cy + half],
     }
 }
@@ -132,13 +194,31 @@ impl Terrain {
         opts: &RenderOptions,
         focal_px: f64,
     ) -> Self {
+        Self::around_cached(world, x_m, y_m, opts, focal_px, None)
+    }
+
+    /// As [`Terrain::around`], taking coarse levels (node spacing >= [`CACHE_MIN_M`]) from
+    /// `cache` (tiles of the same world lattice, so results are bit-identical).
+    pub fn around_cached(
+        world: &dyn Surface,
+        x_m: f64,
+        y_m: f64,
+        opts: &RenderOptions,
+        focal_px: f64,
+        cache: Option<&TileCache>,
+    ) -> Self {
         let m0 = opts.near_cell_m;
         // Keep level 0 at least 4 m and at most 512 cells across.
         let half0 = (focal_px * m0 / opts.lod_px_per_cell).clamp(4.0, 256.0 * m0);
         let mut levels = Vec::new();
         let (mut half, mut m) = (half0, m0);
         loop {
-            levels.push(sample_square(world, x_m, y_m, half, m));
+            let hole = levels.last().map(|l: &Level| l.bounds);
+            let level = match cache {
+                Some(c) if m >= CACHE_MIN_M => c.square(world, x_m, y_m, half, m, hole),
+                _ => sample_square(world, x_m, y_m, half, m, hole),
+            };
+            levels.push(level);
             if half >= opts.max_range_m || levels.len() >= 24 {
                 break;
             }
@@ -187,9 +267,10 @@ impl Terrain {
         let cx = 0.5 * (bounds[0] + bounds[2]);
         let cy = 0.5 * (bounds[1] + bounds[3]);
         let half = 0.5 * (bounds[2] - bounds[0]).max(bounds[3] - bounds[1]) + reach_m;
-        // Coarse surround: about 512 nodes across, never finer than 2 px.
-        let m1 = (2.0 * half / 512.0).max(2.0 * m);
-        let l1 = sample_square(world, cx, cy, half, m1);
+        // Coarse surround for shadows cast from outside: about 128 nodes across, never finer
+        // than 2 px; the raster itself is not re-sampled.
+        let m1 = (2.0 * half / 128.0).max(2.0 * m);
+        let l1 = sample_square(world, cx, cy, half, m1, Some(bounds));
         Self {
             levels: vec![l0, l1],
         }
@@ -207,5 +288,136 @@ impl Terrain {
             }
         }
         None
+    }
+}
+
+/// Finest node spacing whose levels a [`TileCache`] keeps, metres. Finer levels
+/// are cheap to sample (the world's grid sampler) and rarely shared between locations.
+pub const CACHE_MIN_M: f64 = 0.75;
+
+/// Nodes per tile side.
+const TILE_N: usize = 64;
+
+type TileKey = (u64, i64, i64);
+type TileData = std::sync::Arc<(Vec<f32>, Vec<f32>)>;
+
+/// Heights and albedo of world-lattice tiles (64 x 64 nodes) of coarse levels, shared by
+/// the renders of many locations of one world (e.g. a dataset run): far terrain is sampled
+/// once instead of once per location. Use one cache per world. Thread-safe; when it holds
+/// more than its node budget it is emptied.
+pub struct TileCache {
+    tiles: std::sync::RwLock<std::collections::HashMap<TileKey, TileData>>,
+    max_tiles: usize,
+}
+
+impl TileCache {
+    /// A cache holding at most about `max_nodes` nodes (8 bytes each).
+    pub fn new(max_nodes: usize) -> Self {
+        Self {
+            tiles: Default::default(),
+            max_tiles: (max_nodes / (TILE_N * TILE_N)).max(16),
+        }
+    }
+
+    fn tile(&self, world: &dyn Surface, m: f64, tx: i64, ty: i64) -> TileData {
+        let key = (m.to_bits(), tx, ty);
+        if let Ok(map) = self.tiles.read() {
+            if let Some(t) = map.get(&key) {
+                return t.clone();
+            }
+        }
+        // Tile (tx, ty): node columns tx*N.., node rows (northing index) ty*N.. (row 0 of the
+        // tile is the northernmost, index ty*N + N - 1).
+        let n = TILE_N;
+        let g = world.sample_grid(
+            (tx * n as i64) as f64 * m,
+            ((ty + 1) * n as i64) as f64 * m,
+            m,
+            n,
+            n,
+        );
+        let t = std::sync::Arc::new((g.height_m, g.albedo));
+        if let Ok(mut map) = self.tiles.write() {
+            if map.len() >= self.max_tiles {
+                map.clear();
+            }
+            map.insert(key, t.clone());
+        }
+        t
+    }
+
+    /// The level square of [`sample_square`], assembled from tiles; tiles wholly inside
+    /// `hole` (shrunk by 3 nodes) are not fetched (left at 0, never read).
+    fn square(
+        &self,
+        world: &dyn Surface,
+        cx: f64,
+        cy: f64,
+        half: f64,
+        m: f64,
+        hole: Option<[f64; 4]>,
+    ) -> Level {
+        let c0 = ((cx - half) / m).floor() as i64 - 1;
+        let c1 = ((cx + half) / m).ceil() as i64 + 1;
+        let r0 = ((cy + half) / m).ceil() as i64 + 1; // north edge, in nodes
+        let r1 = ((cy - half) / m).floor() as i64 - 1;
+        let nx = (c1 - c0) as usize;
+        let ny = (r0 - r1) as usize;
+        let n = TILE_N as i64;
+        let mut height_m = vec![0f32; nx * ny];
+        let mut albedo = vec![0f32; nx * ny];
+        // Node (c, r) of the level: column gx = c0 + c, northing index gy = r0 - 1 - r.
+        let tys: Vec<i64> = (r1.div_euclid(n)..=(r0 - 1).div_euclid(n)).collect();
+        let txs: Vec<i64> = (c0.div_euclid(n)..=(c1 - 1).div_euclid(n)).collect();
+        // Hole in global node indices: columns [hx0, hx1), northing [hy0, hy1).
+        let (hx0, hx1, hy0, hy1) = match hole {
+            Some(h) => (
+                (h[0] / m).ceil() as i64 + 3,
+                (h[2] / m).floor() as i64 - 3,
+                (h[1] / m).ceil() as i64 + 3,
+                (h[3] / m).floor() as i64 - 3,
+            ),
+            None => (0, 0, 0, 0),
+        };
+        let inside_hole = |tx: i64, ty: i64| {
+            tx * n >= hx0 && (tx + 1) * n <= hx1 && ty * n >= hy0 && (ty + 1) * n <= hy1
+        };
+        let pairs: Vec<(i64, i64)> = tys
+            .iter()
+            .flat_map(|&ty| txs.iter().map(move |&tx| (tx, ty)))
+            .filter(|&(tx, ty)| !inside_hole(tx, ty))
+            .collect();
+        let tiles: Vec<_> = pairs
+            .par_iter()
+            .map(|&(tx, ty)| ((tx, ty), self.tile(world, m, tx, ty)))
+            .collect();
+        for ((tx, ty), t) in tiles {
+            let gx0 = (tx * n).max(c0);
+            let gx1 = ((tx + 1) * n).min(c1);
+            let gy0 = (ty * n).max(r1);
+            let gy1 = ((ty + 1) * n).min(r0);
+            for gy in gy0..gy1 {
+                let r = (r0 - 1 - gy) as usize;
+                let tr = ((ty + 1) * n - 1 - gy) as usize;
+                let tc0 = (gx0 - tx * n) as usize;
+                let w = (gx1 - gx0) as usize;
+                let dst = r * nx + (gx0 - c0) as usize;
+                let src = tr * TILE_N + tc0;
+                height_m[dst..dst + w].copy_from_slice(&t.0[src..src + w]);
+                albedo[dst..dst + w].copy_from_slice(&t.1[src..src + w]);
+            }
+        }
+        Level {
+            grid: HeightGrid {
+                origin_x_m: c0 as f64 * m,
+                origin_y_m: r0 as f64 * m,
+                m_per_px: m,
+                nx,
+                ny,
+                height_m,
+                albedo,
+            },
+            bounds: [cx - half, cy - half, cx + half, cy + half],
+        }
     }
 }
