@@ -592,8 +592,13 @@ pub fn combine_shards(dir: &Path) -> anyhow::Result<usize> {
         }
     }
     ensure!(
+        !counts.is_empty(),
+        "{} has no shard manifests (manifest-I-of-N.jsonl): run the shards with --shard I/N first",
+        dir.display()
+    );
+    ensure!(
         counts.len() == 1,
-        "{} must hold shard manifests of one shard count, found counts {:?}",
+        "{} holds shard manifests of several shard counts {:?}: remove the stale ones",
         dir.display(),
         counts
     );
