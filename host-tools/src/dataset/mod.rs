@@ -434,7 +434,7 @@ pub fn render_location(
     opts.noise_seed = mix(cfg.seed ^ 0x006E_6F69_7365, row.index as u64);
     let set = render::render_views_cached(world, &pose, row.sun_view, &opts, cache)
         .with_context(|| format!("rendering views of location {}", row.id))?;
-    let (sat, _) = render::render_satellite_crop(
+    let (sat, _) = render::render_satellite_crop_cached(
         world,
         row.x_m,
         row.y_m,
@@ -442,6 +442,7 @@ pub fn render_location(
         cfg.satellite_m_per_px,
         row.sun_map,
         &opts,
+        cache,
     )
     .with_context(|| format!("rendering satellite crop of location {}", row.id))?;
     if let Some(parent) = dir.join(&row.satellite).parent() {
