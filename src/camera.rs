@@ -321,14 +321,21 @@ mod tests {
     #[test]
     #[allow(clippy::field_reassign_with_default)]
     fn rejects_bad_parameters() {
-        let mut p = CameraParams::default();
-        p.hfov_deg = 180.0;
+        let base = CameraParams::default();
+        let p = CameraParams {
+            hfov_deg: 180.0,
+            ..base
+        };
         assert_eq!(p.validate(), Err(CameraError::FovOutOfRange));
-        p = CameraParams::default();
-        p.tilt_deg = f32::NAN;
+        let p = CameraParams {
+            tilt_deg: f32::NAN,
+            ..base
+        };
         assert_eq!(p.validate(), Err(CameraError::TiltOutOfRange));
-        p = CameraParams::default();
-        p.width_px = 0;
+        let p = CameraParams {
+            width_px: 0,
+            ..base
+        };
         assert_eq!(p.validate(), Err(CameraError::ZeroImageSize));
         let mut pose = RoverPose::level(0.0, 0.0, 0.0, 0.0);
         pose.heading_deg = f32::INFINITY;

@@ -124,7 +124,7 @@ fn manifest_rows_match_zones_and_read_back() {
     sorted.sort();
     assert_eq!(ids, sorted);
     for r in &ds.rows {
-        let z = zones::zone(r.split);
+        let z = zones::zone(r.split).location_area();
         assert!(r.x_m > z.x_min_m && r.x_m < z.x_max_m && r.y_m > z.y_min_m && r.y_m < z.y_max_m);
         let v = ds.load_views(r).unwrap();
         assert_eq!(v[0].dimensions(), (160, 90));

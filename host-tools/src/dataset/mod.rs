@@ -20,9 +20,6 @@ pub const GENERATOR_VERSION: &str = "orbfix-generate/1";
 /// Names of the four views in dataset order.
 pub const VIEW_NAMES: [&str; 4] = ["front", "right", "rear", "left"];
 
-/// Distance kept between a location and its zone's edges, metres (room for a 300 m map).
-pub const ZONE_MARGIN_M: f64 = 160.0;
-
 /// Size presets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
@@ -212,11 +209,11 @@ impl GenerateConfig {
     /// The manifest row of location `index`: a pure function of the config and `index`.
     pub fn location(&self, world: &World, index: usize) -> anyhow::Result<ManifestRow> {
         let split = self.split_of(index);
-        let z = zones::zone(split);
+        // Inside the zone's location area: the whole 300 m map region stays in the zone.
+        let z = zones::zone(split).location_area();
         let mut rng = ChaCha8Rng::seed_from_u64(mix(self.seed, index as u64));
-        let margin = ZONE_MARGIN_M.min(0.25 * (z.x_max_m - z.x_min_m).min(z.y_max_m - z.y_min_m));
-        let x = rng.random_range(z.x_min_m + margin..z.x_max_m - margin);
-        let y = rng.random_range(z.y_min_m + margin..z.y_max_m - margin);
+        let x = rng.random_range(z.x_min_m..z.x_max_m);
+        let y = rng.random_range(z.y_min_m..z.y_max_m);
         let yaw = rng.random_range(0.0..360.0);
         let az = |r: &DegRange, rng: &mut ChaCha8Rng| round_to(r.draw(rng), 3).rem_euclid(360.0);
         let el = |r: &DegRange, rng: &mut ChaCha8Rng| round_to(r.draw(rng), 3);
@@ -437,7 +434,7 @@ pub fn render_location(
     opts.noise_seed = mix(cfg.seed ^ 0x006E_6F69_7365, row.index as u64);
     let set = render::render_views_cached(world, &pose, row.sun_view, &opts, cache)
         .with_context(|| format!("rendering views of location {}", row.id))?;
-    let (sat, _) = render::render_satellite_crop(
+    let (sat, _) = render::render_satellite_crop_cached(
         world,
         row.x_m,
         row.y_m,
@@ -445,6 +442,7 @@ pub fn render_location(
         cfg.satellite_m_per_px,
         row.sun_map,
         &opts,
+        cache,
     )
     .with_context(|| format!("rendering satellite crop of location {}", row.id))?;
     if let Some(parent) = dir.join(&row.satellite).parent() {
@@ -595,8 +593,13 @@ pub fn combine_shards(dir: &Path) -> anyhow::Result<usize> {
         }
     }
     ensure!(
+        !counts.is_empty(),
+        "{} has no shard manifests (manifest-I-of-N.jsonl): run the shards with --shard I/N first",
+        dir.display()
+    );
+    ensure!(
         counts.len() == 1,
-        "{} must hold shard manifests of one shard count, found counts {:?}",
+        "{} holds shard manifests of several shard counts {:?}: remove the stale ones",
         dir.display(),
         counts
     );
