@@ -83,7 +83,7 @@ fn flat_world_top_down_matches_satellite_crop_and_reference() {
         let ncc = masked_ncc(&eq, sat.as_raw(), &mask);
         eprintln!("{}: NCC raw {raw:.4}, rings equalized {ncc:.4}", row.id);
         // The goal is 0.9. With the crater world's fine albedo the renderer's views
-        // and its orthographic crop differ at the finest scale (measured: 0.62-0.79 raw,
+        // and its orthographic crop differ at the finest scale (measured: 0.58-0.79 raw,
         // 0.79-0.88 equalized; the alignment itself is exact, see docs/reprojection.md),
         // so these floors guard against regressions, not the goal.
         assert!(raw >= 0.5, "raw NCC {raw}");
