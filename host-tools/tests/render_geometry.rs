@@ -269,3 +269,15 @@ fn noise_is_seeded_and_deterministic() {
         a
     );
 }
+
+#[test]
+fn gray_table_matches_the_exact_mapping() {
+    let o = RenderOptions::default();
+    let g = render::GrayMap::new(o.gamma);
+    let mut worst = 0.0f64;
+    for k in 0..=20000 {
+        let r = k as f64 / 16000.0 - 0.1; // includes < 0 and > 1
+        worst = worst.max((g.gray(r) as f64 - o.gray(r)).abs());
+    }
+    assert!(worst < 0.05, "table off by {worst} gray levels");
+}

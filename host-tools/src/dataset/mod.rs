@@ -434,7 +434,7 @@ pub fn render_location(
     opts.noise_seed = mix(cfg.seed ^ 0x006E_6F69_7365, row.index as u64);
     let set = render::render_views_cached(world, &pose, row.sun_view, &opts, cache)
         .with_context(|| format!("rendering views of location {}", row.id))?;
-    let (sat, _) = render::render_satellite_crop(
+    let (sat, _) = render::render_satellite_crop_cached(
         world,
         row.x_m,
         row.y_m,
@@ -442,6 +442,7 @@ pub fn render_location(
         cfg.satellite_m_per_px,
         row.sun_map,
         &opts,
+        cache,
     )
     .with_context(|| format!("rendering satellite crop of location {}", row.id))?;
     if let Some(parent) = dir.join(&row.satellite).parent() {
@@ -592,8 +593,13 @@ pub fn combine_shards(dir: &Path) -> anyhow::Result<usize> {
         }
     }
     ensure!(
+        !counts.is_empty(),
+        "{} has no shard manifests (manifest-I-of-N.jsonl): run the shards with --shard I/N first",
+        dir.display()
+    );
+    ensure!(
         counts.len() == 1,
-        "{} must hold shard manifests of one shard count, found counts {:?}",
+        "{} holds shard manifests of several shard counts {:?}: remove the stale ones",
         dir.display(),
         counts
     );

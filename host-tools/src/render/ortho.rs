@@ -22,6 +22,20 @@ pub fn render_ortho(
     sun: Sun,
     opts: &RenderOptions,
 ) -> Result<GrayImage, RenderError> {
+    render_ortho_cached(world, geo, w, h, sun, opts, None)
+}
+
+/// As [`render_ortho`], sharing the coarse surround (traced for shadows) between calls
+/// through `cache` (one per world; identical results).
+pub fn render_ortho_cached(
+    world: &dyn Surface,
+    geo: &GeoRef,
+    w: u32,
+    h: u32,
+    sun: Sun,
+    opts: &RenderOptions,
+    cache: Option<&super::terrain::TileCache>,
+) -> Result<GrayImage, RenderError> {
     sun.validate()?;
     opts.validate()?;
     if w == 0 || h == 0 || w > MAX_ORTHO_PX || h > MAX_ORTHO_PX {
@@ -38,9 +52,10 @@ pub fn render_ortho(
             "bad georeference {geo:?}: resolution must be > 0 and the origin finite"
         )));
     }
-    let terrain = Terrain::region(world, geo, w, h, opts.shadow_reach_m);
+    let terrain = Terrain::region(world, geo, w, h, opts.shadow_reach_m, cache);
     let shadow = ShadowField::build_levels(&terrain, &sun, opts.shadow_reach_m, 1);
     let sdir = sun.direction();
+    let gmap = super::GrayMap::new(opts.gamma);
     let l0 = &terrain.levels[0];
     let (w_us, nx) = (w as usize, l0.grid.nx);
     let mut gray = vec![0f32; w_us * h as usize];
@@ -52,7 +67,7 @@ pub fn render_ortho(
             let (x, y) = l0.node_xy(gc, gr);
             let albedo = l0.grid.albedo[gr * nx + gc] as f64;
             let lit = shadow.lit(x, y) as f64;
-            *out = opts.gray(opts.radiance(albedo, n, sdir, [0.0, 0.0, 1.0], lit)) as f32;
+            *out = gmap.gray(opts.radiance(albedo, n, sdir, [0.0, 0.0, 1.0], lit));
         }
     });
     // Noise stream 0 is the orthographic one (views use 1..=4).

@@ -70,6 +70,7 @@ pub fn render_view(
     let mut inv_z = vec![0f32; w * h];
     let mut shade = vec![0f32; w * h];
     let sdir = sun.direction();
+    let gmap = super::GrayMap::new(opts.gamma);
     let rot = cam.world_to_cam;
     let (ccx, ccy, ccz) = (
         cam.centre.x as f64,
@@ -115,7 +116,7 @@ pub fn render_view(
                     u: (f * cxx / cz + pcx) as f32,
                     v: (f * cyy / cz + pcy) as f32,
                     z: cz as f32,
-                    g: opts.gray(rad) as f32,
+                    g: gmap.gray(rad),
                 };
             }
         }
