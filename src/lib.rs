@@ -14,6 +14,7 @@
 //! - [`image`]: borrowed 8-bit grayscale image views;
 //! - [`geo`]: georeference of north-up rasters;
 //! - [`camera`]: pinhole camera model of the rover's four views.
+//! - [`reproject`]: integer lookup-table reprojection of the four views to a top-down grid.
 #![no_std]
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
@@ -25,3 +26,4 @@
 pub mod camera;
 pub mod geo;
 pub mod image;
+pub mod reproject;

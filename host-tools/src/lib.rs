@@ -8,4 +8,6 @@
 pub mod dataset;
 pub mod fsutil;
 pub mod render;
+pub mod reproject_bench;
+pub mod reproject_ref;
 pub mod world;

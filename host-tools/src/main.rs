@@ -20,6 +20,8 @@ enum Command {
     Render(cmd::render::Args),
     /// Measure speed beside the anchors (e.g. `orbfix bench world`).
     Bench(cmd::bench::Args),
+    /// Reproject a dataset location's four views to a north-up top-down image (core LUT).
+    Reproject(cmd::reproject::Args),
     /// Print the terrain elevation (metres) at a world point of the built-in world.
     Elevation {
         /// World seed.
@@ -40,6 +42,7 @@ fn main() -> anyhow::Result<()> {
         Command::Generate(a) => cmd::generate::run(a)?,
         Command::Render(a) => cmd::render::run(a)?,
         Command::Bench(a) => cmd::bench::run(a)?,
+        Command::Reproject(a) => cmd::reproject::run(a)?,
         Command::Elevation { seed, x, y } => {
             let world = orbfix_host::world::World::new(seed);
             println!("{:.3}", world.height_m(x, y));

@@ -27,12 +27,18 @@ pub struct Args {
     /// World seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// reproject: timed repetitions of the table apply and of OpenCV's remap.
+    #[arg(long, default_value_t = 2000)]
+    reps: usize,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
 enum Target {
     /// The world renderer.
     World,
+    /// The core's LUT reprojection (apply vs f64 reference vs OpenCV remap; table bytes and
+    /// build time).
+    Reproject,
 }
 
 /// CPU time (user + system) of this process so far, seconds.
@@ -54,6 +60,7 @@ pub const ANCHOR_LOCATIONS_PER_S: f64 = 15.0;
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.target {
         Target::World => bench_world(&args),
+        Target::Reproject => bench_reproject(&args),
     }
 }
 
@@ -167,4 +174,14 @@ fn bench_world(args: &Args) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+fn bench_reproject(args: &Args) -> anyhow::Result<()> {
+    let (w, h) = super::generate::parse_size(&args.size)?;
+    orbfix_host::reproject_bench::run(&orbfix_host::reproject_bench::BenchOptions {
+        width_px: w,
+        height_px: h,
+        reps: args.reps,
+        ..Default::default()
+    })
 }

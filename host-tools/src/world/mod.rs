@@ -437,8 +437,9 @@ impl World {
     /// Samples a north-up grid of `nx x ny` pixels of `m_per_px` metres whose north-west
     /// corner is `(origin_x_m, origin_y_m)`: pixel `(col, row)` is sampled at its centre
     /// `(origin_x_m + (col + 0.5) m_per_px, origin_y_m - (row + 0.5) m_per_px)`
-    /// (`docs/frames.md`). Rows in parallel (rayon). Empty when `nx` or `ny` is 0; see
-    /// [`World::try_sample_grid`] for a checked variant.
+    /// (`docs/frames.md`). Rows in parallel (rayon). Empty (`nx = ny = 0`) when `nx` or `ny`
+    /// is 0 or the grid would exceed [`MAX_GRID_PIXELS`]; non-finite pixel centres get
+    /// height 0 and `albedo_mean`. [`World::try_sample_grid`] reports such input as errors.
     pub fn sample_grid(
         &self,
         origin_x_m: f64,
@@ -447,7 +448,11 @@ impl World {
         nx: usize,
         ny: usize,
     ) -> HeightGrid {
-        let n = nx.saturating_mul(ny);
+        let (nx, ny) = match nx.checked_mul(ny) {
+            Some(n) if n <= MAX_GRID_PIXELS => (nx, ny),
+            _ => (0, 0),
+        };
+        let n = nx * ny;
         let mut grid = HeightGrid {
             origin_x_m,
             origin_y_m,
@@ -463,7 +468,12 @@ impl World {
         let xs: Vec<f64> = (0..nx)
             .map(|c| origin_x_m + (c as f64 + 0.5) * m_per_px)
             .collect();
-        let tile = ((TILE_MAX_M / m_per_px) as usize).clamp(1, TILE);
+        let rocks_per_pixel = m_per_px > FINE_GRID_M_PER_PX;
+        let tile = if rocks_per_pixel {
+            ((COARSE_TILE_MAX_M / m_per_px) as usize).clamp(2, TILE)
+        } else {
+            ((FINE_TILE_MAX_M / m_per_px) as usize).clamp(1, TILE)
+        };
         grid.height_m
             .par_chunks_mut(nx * tile)
             .zip(grid.albedo.par_chunks_mut(nx * tile))
@@ -475,14 +485,14 @@ impl World {
                     .collect();
                 let mut items = Vec::new();
                 for (t, xt) in xs.chunks(tile).enumerate() {
-                    self.fill_tile(xt, &ys, &mut items, hs, als, nx, t * tile);
+                    self.fill_tile(xt, &ys, &mut items, hs, als, nx, t * tile, rocks_per_pixel);
                 }
             });
         grid
     }
 
     /// [`World::sample_grid`] with its input checked: finite origin, positive finite
-    /// resolution, non-empty and at most 2^28 pixels.
+    /// resolution, non-empty and at most [`MAX_GRID_PIXELS`] pixels.
     pub fn try_sample_grid(
         &self,
         origin_x_m: f64,
@@ -502,7 +512,7 @@ impl World {
             )));
         }
         match nx.checked_mul(ny) {
-            Some(n) if n > 0 && n <= 1 << 28 => {}
+            Some(n) if n > 0 && n <= MAX_GRID_PIXELS => {}
             _ => {
                 return Err(WorldError::BadQuery(format!(
                     "grid of {nx} x {ny} pixels: need 1 ..= 2^28 pixels"
@@ -581,13 +591,18 @@ impl World {
             return (0.0, 0.0);
         }
         let mut acc = self.base(x, y, relief, want_a);
-        self.features([x, y, x, y], !relief, |f| acc.add(f, x, y));
+        self.features([x, y, x, y], !relief, |f| {
+            acc.add(f, x, y);
+        });
         acc.finish()
     }
 
     /// Fills one tile of a grid (pixel centres `xs` x `ys`, written at column `col0` of rows
-    /// of `stride` pixels): gathers the features reaching the tile once, then sums them per
-    /// pixel in the same order as [`World::eval`], so the results are identical.
+    /// of `stride` pixels): gathers the craters (and, unless `rocks_per_pixel`, the boulders)
+    /// reaching the tile once, then sums them per pixel in the same order as
+    /// [`World::eval`], so the results are identical. With `rocks_per_pixel` (coarse grids,
+    /// where a tile would touch many boulder cells for few pixels) each pixel looks its
+    /// boulders up itself.
     #[allow(clippy::too_many_arguments)]
     fn fill_tile(
         &self,
@@ -598,6 +613,7 @@ impl World {
         als: &mut [f32],
         stride: usize,
         col0: usize,
+        rocks_per_pixel: bool,
     ) {
         let relief = self.cfg.relief;
         let (Some(&xa), Some(&xb), Some(&ya), Some(&yb)) =
@@ -607,26 +623,49 @@ impl World {
         };
         let finite = xa.is_finite() && xb.is_finite() && ya.is_finite() && yb.is_finite();
         let single = xs.len() == 1 && ys.len() == 1;
-        if finite && !single {
+        let gather = finite && !single;
+        if gather {
             let rect = [xa.min(xb), ya.min(yb), xa.max(xb), ya.max(yb)];
             items.clear();
-            self.features(rect, !relief, |f| {
-                items.push(match f {
-                    Feature::Crater(c) => Item::Crater(*c),
-                    Feature::Rock(r) => Item::Rock(*r),
-                })
-            });
+            if rocks_per_pixel {
+                self.craters
+                    .visit_rect(rect, !relief, |c| items.push(Item::Crater(*c)));
+            } else {
+                self.features(rect, !relief, |f| {
+                    items.push(match f {
+                        Feature::Crater(c) => Item::Crater(*c),
+                        Feature::Rock(r) => Item::Rock(*r),
+                    })
+                });
+            }
         }
         for (r, &y) in ys.iter().enumerate() {
             for (c, &x) in xs.iter().enumerate() {
-                let (h, a) = if finite && !single {
+                let (h, a) = if !gather {
+                    self.eval(x, y, true, true)
+                } else if rocks_per_pixel {
+                    let mut acc = self.base(x, y, relief, true);
+                    let point = [x, y, x, y];
+                    let rocks = &self.rocks;
+                    rocks.visit_rect(point, |rk| {
+                        acc.add(Feature::Rock(rk), x, y);
+                    });
+                    for it in items.iter() {
+                        if let Item::Crater(cr) = it {
+                            if acc.add(Feature::Crater(cr), x, y) && rocks.crater_has_rocks(cr) {
+                                rocks.visit_crater_rect(cr, point, |rk| {
+                                    acc.add(Feature::Rock(rk), x, y);
+                                });
+                            }
+                        }
+                    }
+                    acc.finish()
+                } else {
                     let mut acc = self.base(x, y, relief, true);
                     for it in items.iter() {
                         acc.add(it.as_feature(), x, y);
                     }
                     acc.finish()
-                } else {
-                    self.eval(x, y, true, true)
                 };
                 let k = r * stride + col0 + c;
                 hs[k] = h as f32;
@@ -636,12 +675,23 @@ impl World {
     }
 }
 
+/// Largest grid `sample_grid` samples: 2^28 pixels (2 GiB of `f32` height and albedo).
+pub const MAX_GRID_PIXELS: usize = 1 << 28;
+
 /// Largest side of the tiles `sample_grid` gathers features for, pixels.
 const TILE: usize = 16;
 
-/// Largest ground side of a tile, metres: a tile gathers every boulder cell it touches
-/// (cells of 0.4 m and up), so coarse grids use smaller tiles, down to single pixels.
-const TILE_MAX_M: f64 = 4.0;
+/// Fine grids (at most this many metres per pixel) gather craters and boulders per tile;
+/// coarser ones gather craters per tile and look boulders up per pixel.
+const FINE_GRID_M_PER_PX: f64 = 1.0;
+
+/// Largest ground side of a fine grid's tile, metres: a tile gathers every boulder cell it
+/// touches (cells of 0.4 m and up).
+const FINE_TILE_MAX_M: f64 = 4.0;
+
+/// Largest ground side of a coarse grid's tile, metres (bounds the list of small craters
+/// each pixel walks).
+const COARSE_TILE_MAX_M: f64 = 8.0;
 
 /// A feature reaching a query, borrowed.
 #[derive(Clone, Copy)]
@@ -677,9 +727,10 @@ struct Acc {
 }
 
 impl Acc {
-    /// Adds the contribution of `f` at `(x, y)` metres (nothing if `f` does not cover it).
+    /// Adds the contribution of `f` at `(x, y)` metres (nothing if `f` does not cover it);
+    /// whether `f` covers the point.
     #[inline]
-    fn add(&mut self, f: Feature<'_>, x: f64, y: f64) {
+    fn add(&mut self, f: Feature<'_>, x: f64, y: f64) -> bool {
         match f {
             Feature::Crater(c) => {
                 let (dx, dy) = (x - c.x_m, y - c.y_m);
@@ -692,7 +743,9 @@ impl Acc {
                     if self.want_a {
                         self.a += c.albedo_at(dx, dy, r2, self.boost);
                     }
+                    return true;
                 }
+                false
             }
             Feature::Rock(r) => {
                 let (dx, dy) = (x - r.x_m, y - r.y_m);
@@ -705,7 +758,9 @@ impl Acc {
                     if self.want_a {
                         self.a += r.albedo_boost;
                     }
+                    return true;
                 }
+                false
             }
         }
     }

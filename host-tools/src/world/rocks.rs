@@ -8,7 +8,7 @@
 //! the rim.
 
 use super::craters::{
-    octave_bins, poisson_cdf, poisson_draw, power_law_diameter, rect_dist2, unit_f64, Crater,
+    octave_bins, poisson_cdf, poisson_draw, rect_dist2, unit_f64, Crater, PowerLaw,
 };
 use super::hash::{cell_hash, cell_of, layer_key, mix64, Rng};
 use super::WorldConfig;
@@ -45,8 +45,8 @@ impl Rock {
 
 #[derive(Clone, Debug)]
 struct RockClass {
-    d_min: f64,
     d_max: f64,
+    law: PowerLaw,
     cell: f64,
     cdf_background: Vec<f64>,
     cdf_fresh: Vec<f64>,
@@ -57,7 +57,6 @@ struct RockClass {
 #[derive(Clone, Debug)]
 pub(crate) struct RockField {
     classes: Vec<RockClass>,
-    exponent: f64,
     albedo_boost: f64,
     /// Smallest fresh crater that carries boulders, metres.
     fresh_d_min: f64,
@@ -78,8 +77,8 @@ impl RockField {
                 let per_m2 = cfg.rock_density_per_m2
                     * (libm::pow(da, -cfg.rock_exponent) - libm::pow(db, -cfg.rock_exponent));
                 RockClass {
-                    d_min: da,
                     d_max: db,
+                    law: PowerLaw::new(da, db, cfg.rock_exponent),
                     cell,
                     cdf_background: poisson_cdf(per_m2 * cell * cell),
                     cdf_fresh: poisson_cdf(per_m2 * cfg.fresh_crater_rock_factor * cell * cell),
@@ -90,7 +89,6 @@ impl RockField {
         let max_radius = classes.last().map_or(0.0, |c| 0.5 * c.d_max);
         Self {
             classes,
-            exponent: cfg.rock_exponent,
             albedo_boost: cfg.rock_albedo_boost,
             fresh_d_min: cfg.fresh_crater_rock_d_min_m,
             max_radius,
@@ -110,7 +108,7 @@ impl RockField {
     #[inline]
     fn make(&self, cls: &RockClass, x: f64, y: f64, shape: u64) -> Rock {
         let ud = (shape as u32) as f64 * (1.0 / 4_294_967_296.0);
-        let d = power_law_diameter(ud, cls.d_min, cls.d_max, self.exponent);
+        let d = cls.law.diameter(ud);
         let uh = ((shape >> 32) & 0xffff) as f64 * (1.0 / 65536.0);
         let ua = (shape >> 48) as f64 * (1.0 / 65536.0);
         Rock {
