@@ -126,6 +126,17 @@ fn marker_lands_where_the_camera_model_predicts_in_views_and_satellite() {
         (sc - pc as f64).abs() < 0.3 && (sr - pr as f64).abs() < 0.3,
         "satellite: marker at ({sc:.2}, {sr:.2}), georeference says ({pc:.2}, {pr:.2})"
     );
+    // Box-filtered (2 x 2 samples per pixel): same place, to a tenth of a pixel.
+    let o2 = RenderOptions {
+        ortho_supersample: 2,
+        ..o
+    };
+    let (sat2, _) = render::render_satellite_crop(&surf, x, y, 200, 0.25, sun, &o2).unwrap();
+    let (sc2, sr2, _) = bright_centroid(&sat2, 200);
+    assert!(
+        (sc2 - pc as f64).abs() < 0.3 && (sr2 - pr as f64).abs() < 0.3,
+        "supersampled satellite: marker at ({sc2:.2}, {sr2:.2}), georeference says ({pc:.2}, {pr:.2})"
+    );
 }
 
 #[test]
