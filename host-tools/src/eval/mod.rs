@@ -44,10 +44,14 @@ pub struct MatcherSpec {
     pub highpass_m: Option<f32>,
     /// Ignore top-down pixels farther than this from the rover, metres.
     pub max_range_m: Option<f32>,
+    /// Equalize the top-down image's brightness per 1 m range ring first (the reprojection's
+    /// `equalize_rings`).
+    pub equalize_rings: bool,
 }
 
 /// Looks a matcher up by name: a base (`l1`, `l2`, `ncc`) followed by options, each
-/// `-dist` (1 / distance weights, full weight within 5 m), `-hpN` (high-pass, box radius N
+/// `-dist` (1 / distance weights, full weight within 5 m), `-eq` (top-down brightness
+/// equalized per 1 m range ring, `orbfix::reproject::equalize_rings`), `-hpN` (high-pass, box radius N
 /// metres), `-rN` (use the top-down image within N metres of the rover only); e.g.
 /// `ncc-hp4-r20`. [`MATCHERS`] lists the ones reported.
 pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
@@ -58,7 +62,7 @@ pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
         "l2" => Box::new(L2),
         "ncc" => Box::new(Ncc::default()),
         _ => bail!(
-            "unknown matcher '{name}': choose one of {} (options: -dist, -hpN, -rN)",
+            "unknown matcher '{name}': choose one of {} (options: -dist, -eq, -hpN, -rN)",
             MATCHERS.join(", ")
         ),
     };
@@ -68,6 +72,7 @@ pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
         distance_weighting_px: None,
         highpass_m: None,
         max_range_m: None,
+        equalize_rings: false,
     };
     for p in parts {
         let num = |pre: &str| -> anyhow::Result<f32> {
@@ -82,12 +87,14 @@ pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
         };
         if p == "dist" {
             spec.distance_weighting_px = Some(20);
+        } else if p == "eq" {
+            spec.equalize_rings = true;
         } else if p.starts_with("hp") {
             spec.highpass_m = Some(num("hp")?);
         } else if p.starts_with('r') {
             spec.max_range_m = Some(num("r")?);
         } else {
-            bail!("unknown option '{p}' in matcher '{name}' (options: -dist, -hpN, -rN)");
+            bail!("unknown option '{p}' in matcher '{name}' (options: -dist, -eq, -hpN, -rN)");
         }
     }
     Ok(spec)
@@ -228,6 +235,24 @@ fn highpassed(
 /// Pre-processes a query's images for a matcher.
 pub fn prepare(spec: &MatcherSpec, top: &TopDown, map: &MapRegion) -> anyhow::Result<Prepared> {
     let weights = weights_for(spec, top)?;
+    let equalized;
+    let top = if spec.equalize_rings {
+        let mut img = top.image.clone();
+        let mask: Vec<u8> = top
+            .mask
+            .iter()
+            .map(|&m| if m != 0 { 255 } else { 0 })
+            .collect();
+        let ring = ((1.0 / top.m_per_px).round() as u32).max(1);
+        orbfix::reproject::equalize_rings(&mut img, &mask, top.n, ring);
+        equalized = TopDown {
+            image: img,
+            ..top.clone()
+        };
+        &equalized
+    } else {
+        top
+    };
     match spec.highpass_m {
         None => Ok(Prepared {
             top: top.image.clone(),
