@@ -2,6 +2,8 @@
 
 use clap::{Parser, Subcommand};
 
+mod cmd;
+
 /// orbfix: absolute rover localization from ground views and an orbital map.
 #[derive(Parser, Debug)]
 #[command(name = "orbfix", version, about, long_about = None)]
@@ -24,6 +26,8 @@ enum Command {
         #[arg(long, allow_negative_numbers = true)]
         y: f64,
     },
+    /// Build the flight firmware, run it in QEMU and write the timing and memory budget.
+    Budget(cmd::budget::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -33,6 +37,7 @@ fn main() -> anyhow::Result<()> {
             let world = orbfix_host::world::World::new(seed);
             println!("{:.3}", world.height_m(x, y));
         }
+        Command::Budget(args) => cmd::budget::run(args)?,
     }
     Ok(())
 }

@@ -1,0 +1,218 @@
+//! Test vectors for the flight firmware: the rig, a pose prior, four frames and the
+//! orbital map region, written as `vectors.rs` (constants, `f32` as exact bit patterns),
+//! `frames.bin` (four frames, dataset order, packed) and `map.bin` (north-up, packed).
+
+use super::write_atomic;
+use anyhow::{ensure, Context, Result};
+use orbfix::camera::{CameraParams, RoverPose};
+use orbfix::flight_run::{self, FlightInputs, FlightOutputs, NoClock};
+use orbfix::geo::GeoRef;
+use orbfix::image::ImageView;
+use std::path::Path;
+
+/// Everything the firmware embeds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Vectors {
+    /// Camera rig.
+    pub params: CameraParams,
+    /// Pose prior.
+    pub pose: RoverPose,
+    /// Four frames, dataset order (front, right, rear, left), packed rows.
+    pub frames: Vec<u8>,
+    /// Map region, north-up, packed rows.
+    pub map: Vec<u8>,
+    /// Map width, pixels.
+    pub map_w: usize,
+    /// Map height, pixels.
+    pub map_h: usize,
+    /// Map georeference.
+    pub map_geo: GeoRef,
+    /// How these vectors were made (for reports).
+    pub source: String,
+}
+
+/// A small deterministic generator (SplitMix64).
+struct SplitMix(u64);
+impl SplitMix {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+}
+
+/// Value-noise texture: bilinear interpolation of a random lattice of `cell` pixels, two
+/// octaves, mapped to grey levels 20..235 (never black, never saturated).
+fn texture(w: usize, h: usize, cell: usize, rng: &mut SplitMix) -> Vec<u8> {
+    let mut acc = vec![0f32; w * h];
+    for (octave, amp) in [(cell, 0.7f32), (cell.div_ceil(4).max(1), 0.3)] {
+        let gw = w / octave + 2;
+        let gh = h / octave + 2;
+        let lattice: Vec<f32> = (0..gw * gh)
+            .map(|_| (rng.next() >> 40) as f32 / (1u64 << 24) as f32)
+            .collect();
+        for y in 0..h {
+            let fy = y as f32 / octave as f32;
+            let (y0, ty) = (fy as usize, fy.fract());
+            for x in 0..w {
+                let fx = x as f32 / octave as f32;
+                let (x0, tx) = (fx as usize, fx.fract());
+                let l = |i: usize, j: usize| lattice[j * gw + i];
+                let top = l(x0, y0) * (1.0 - tx) + l(x0 + 1, y0) * tx;
+                let bot = l(x0, y0 + 1) * (1.0 - tx) + l(x0 + 1, y0 + 1) * tx;
+                acc[y * w + x] += amp * (top * (1.0 - ty) + bot * ty);
+            }
+        }
+    }
+    acc.into_iter()
+        .map(|v| (20.0 + 215.0 * v.clamp(0.0, 1.0)).round() as u8)
+        .collect()
+}
+
+impl Vectors {
+    /// Deterministic synthetic vectors of `seed`: the default rig (640 x 360, 90 deg HFOV,
+    /// 2 m, 15 deg down) at size `width_px x height_px`, value-noise frames, and a map of
+    /// `map_size_m` square at `map_m_per_px` centred on the prior.
+    pub fn synthetic(
+        seed: u64,
+        width_px: u32,
+        height_px: u32,
+        map_size_m: f32,
+        map_m_per_px: f32,
+    ) -> Result<Self> {
+        let params = CameraParams {
+            width_px,
+            height_px,
+            ..CameraParams::default()
+        };
+        params
+            .validate()
+            .map_err(|e| anyhow::anyhow!("bad camera size {width_px} x {height_px}: {e:?}"))?;
+        ensure!(
+            map_size_m.is_finite() && map_m_per_px.is_finite() && map_m_per_px > 0.0,
+            "map size {map_size_m} m and resolution {map_m_per_px} m/px must be positive numbers"
+        );
+        let n = (map_size_m / map_m_per_px).round() as usize;
+        ensure!(
+            (8..=4096).contains(&n),
+            "map of {map_size_m} m at {map_m_per_px} m/px is {n} px across; use 8..4096"
+        );
+        let mut rng = SplitMix(seed ^ 0x6F72_6266_6978);
+        let pose = RoverPose::level(
+            100.0 + (rng.next() % 1000) as f32 * 0.25,
+            -50.0 + (rng.next() % 1000) as f32 * 0.25,
+            0.0,
+            (rng.next() % 360) as f32,
+        );
+        let (w, h) = (width_px as usize, height_px as usize);
+        let mut frames = Vec::with_capacity(4 * w * h);
+        for _ in 0..4 {
+            frames.extend(texture(w, h, 24, &mut rng));
+        }
+        let map = texture(n, n, 16, &mut rng);
+        let map_geo = GeoRef::centred(pose.x_m, pose.y_m, n, n, map_m_per_px)
+            .map_err(|e| anyhow::anyhow!("bad map georeference: {e:?}"))?;
+        Ok(Self {
+            params,
+            pose,
+            frames,
+            map,
+            map_w: n,
+            map_h: n,
+            map_geo,
+            source: format!(
+                "synthetic value noise, seed {seed}, frames 4 x {w} x {h}, map {n} x {n} px at {map_m_per_px} m/px ({map_size_m} m)"
+            ),
+        })
+    }
+
+    /// Pixels in one frame.
+    pub fn frame_pixels(&self) -> usize {
+        (self.params.width_px * self.params.height_px) as usize
+    }
+
+    /// A one-line description.
+    pub fn describe(&self) -> String {
+        self.source.clone()
+    }
+
+    /// The core's inputs, borrowing these vectors.
+    pub fn inputs(&self) -> Result<FlightInputs<'_>> {
+        let (w, h) = (
+            self.params.width_px as usize,
+            self.params.height_px as usize,
+        );
+        let n = w * h;
+        ensure!(
+            self.frames.len() == 4 * n,
+            "frames hold {} bytes, expected 4 x {w} x {h}",
+            self.frames.len()
+        );
+        let view = |i: usize| {
+            ImageView::new(&self.frames[i * n..(i + 1) * n], w, h)
+                .map_err(|e| anyhow::anyhow!("frame {i}: {e:?}"))
+        };
+        Ok(FlightInputs {
+            params: self.params,
+            pose: self.pose,
+            frames: [view(0)?, view(1)?, view(2)?, view(3)?],
+            map: ImageView::new(&self.map, self.map_w, self.map_h)
+                .map_err(|e| anyhow::anyhow!("map: {e:?}"))?,
+            map_geo: self.map_geo,
+        })
+    }
+
+    /// The host's run of the core on these vectors (what the firmware must reproduce).
+    pub fn host_run(&self) -> Result<FlightOutputs> {
+        flight_run::run(&self.inputs()?, &mut NoClock)
+            .map_err(|e| anyhow::anyhow!("the core rejected the test vectors: {e:?}"))
+    }
+
+    /// Writes `vectors.rs`, `frames.bin` and `map.bin` into `dir` (each atomically).
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the vectors folder {}", dir.display()))?;
+        let f = |v: f32| format!("f32::from_bits(0x{:08x})", v.to_bits());
+        let p = &self.params;
+        let q = &self.pose;
+        let g = &self.map_geo;
+        let src = format!(
+            "// Written by `orbfix budget`: {}.\n\
+             pub const WIDTH: usize = {};\npub const HEIGHT: usize = {};\n\
+             pub const HFOV_DEG: f32 = {};\npub const CAM_HEIGHT_M: f32 = {};\n\
+             pub const TILT_DEG: f32 = {};\n\
+             /// x_m, y_m, ground_z_m, heading_deg, pitch_deg, roll_deg.\n\
+             pub const POSE: [f32; 6] = [{}, {}, {}, {}, {}, {}];\n\
+             pub const FRAMES_LEN: usize = {};\n\
+             pub const MAP_W: usize = {};\npub const MAP_H: usize = {};\n\
+             pub const MAP_LEN: usize = {};\n\
+             /// origin_x_m (west edge), origin_y_m (north edge), m_per_px.\n\
+             pub const MAP_GEO: [f32; 3] = [{}, {}, {}];\n",
+            self.source,
+            p.width_px,
+            p.height_px,
+            f(p.hfov_deg),
+            f(p.height_m),
+            f(p.tilt_deg),
+            f(q.x_m),
+            f(q.y_m),
+            f(q.ground_z_m),
+            f(q.heading_deg),
+            f(q.pitch_deg),
+            f(q.roll_deg),
+            self.frames.len(),
+            self.map_w,
+            self.map_h,
+            self.map.len(),
+            f(g.origin_x_m),
+            f(g.origin_y_m),
+            f(g.m_per_px),
+        );
+        write_atomic(&dir.join("frames.bin"), &self.frames)?;
+        write_atomic(&dir.join("map.bin"), &self.map)?;
+        write_atomic(&dir.join("vectors.rs"), src.as_bytes())?;
+        Ok(())
+    }
+}

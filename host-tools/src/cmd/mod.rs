@@ -1,0 +1,3 @@
+//! One module per subcommand of `orbfix` (each has `Args` and `run`).
+
+pub mod budget;
