@@ -6,4 +6,6 @@
 //! (`docs/frames.md`).
 
 pub mod budget;
+pub mod eval;
+pub mod reproject_ref;
 pub mod world;
