@@ -1,42 +1,51 @@
-//! The fix as one call with per-stage hooks: the code the flight firmware times on the
-//! target and the host re-runs for the bit-exactness check (`orbfix budget`).
+//! The whole fix as one call with per-stage hooks: the code the flight firmware times on
+//! the target and the host re-runs for the bit-exactness check (`orbfix budget`).
 //!
 //! [`run`] takes the inputs (camera rig, pose prior, four frames and the orbital map region,
-//! all borrowed: on the target they live in external memory) and calls a [`StageClock`]
-//! around each stage, so the firmware can read its instruction counter there while the host
-//! passes [`NoClock`]. Both get the same [`FlightOutputs`]; [`FlightOutputs::digest`] folds
-//! every output bit into one 32-bit FNV-1a value.
+//! all borrowed: on the target they live in external memory), caller-provided [`Scratch`]
+//! (sizes from [`scratch_sizes`]), and calls a [`StageClock`] around each stage so the
+//! firmware can read its instruction counter there while the host passes [`NoClock`]. Both
+//! get the same [`FlightOutputs`]; [`FlightOutputs::digest`] folds every output bit into one
+//! 32-bit FNV-1a value.
 //!
-//! Stages so far: camera set-up for the four views (floats, set-up only), then the input
-//! checks over every frame and map pixel (integer only: min, max, sum, FNV-1a hash); a frame
-//! that is black or saturated is rejected with a typed error.
+//! Stages ([`Stage`]):
+//! 1. `lut_build`: the reprojection lookup table for the pose prior ([`Lut::build`]);
+//! 2. `reproject`: the four frames sampled into the top-down image and mask ([`Lut::apply`]);
+//! 3. `localize`: masked NCC of the top-down image over the map region, coarse dense pass,
+//!    fine re-scoring of the best peaks and sub-pixel refinement ([`localize()`]).
 
-use crate::camera::{Camera, CameraError, CameraParams, RoverPose, View};
+use crate::camera::{CameraParams, RoverPose};
 use crate::geo::GeoRef;
 use crate::image::ImageView;
+use crate::localize::{self, LocalizeConfig, LocalizeError};
+use crate::matcher::ncc::Ncc;
+use crate::matcher::OpCounts;
+use crate::reproject::{
+    ApplyReport, BuildStats, Cell, FrameStatus, GridSpec, Lut, ReprojectError, Tap,
+};
 
 /// The stages of the fix, in run order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Stage {
-    /// Camera models of the four views from the rig and the pose prior.
-    Cameras,
-    /// Checks and statistics of the four frames (every pixel).
-    FrameCheck,
-    /// Checks and statistics of the orbital map region (every pixel).
-    MapCheck,
+    /// Reprojection lookup table for the pose prior (set-up floats, once per stop).
+    LutBuild,
+    /// Integer bilinear sampling of the four frames into the top-down image and mask.
+    Reproject,
+    /// Matcher over the map region (coarse dense NCC), fine re-scoring and refinement.
+    Localize,
 }
 
 impl Stage {
     /// Every stage, in run order.
-    pub const ALL: [Stage; 3] = [Stage::Cameras, Stage::FrameCheck, Stage::MapCheck];
+    pub const ALL: [Stage; 3] = [Stage::LutBuild, Stage::Reproject, Stage::Localize];
 
     /// Short lower-case name used in reports and the budget table.
     pub fn name(self) -> &'static str {
         match self {
-            Stage::Cameras => "cameras",
-            Stage::FrameCheck => "frame_check",
-            Stage::MapCheck => "map_check",
+            Stage::LutBuild => "lut_build",
+            Stage::Reproject => "reproject",
+            Stage::Localize => "localize",
         }
     }
 }
@@ -59,40 +68,28 @@ impl StageClock for NoClock {
 }
 
 /// Why a fix could not be run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FlightError {
-    /// Camera rig or pose prior out of range.
-    Camera(CameraError),
-    /// A frame is not `width_px x height_px` of the rig. `view` is 0..4 in dataset order.
-    FrameSize {
-        /// View index 0..4 (front, right, rear, left).
-        view: u8,
-    },
-    /// A frame is black: its brightest pixel is at most [`BLACK_LEVEL`].
-    BlackFrame {
-        /// View index 0..4 (front, right, rear, left).
-        view: u8,
-    },
-    /// A frame is saturated: its darkest pixel is at least [`SATURATED_LEVEL`].
-    SaturatedFrame {
-        /// View index 0..4 (front, right, rear, left).
-        view: u8,
-    },
-    /// The map region is uniform (no contrast to match against).
-    FlatMap,
+    /// Table build or frame sampling failed (camera, grid, frame sizes, buffers).
+    Reproject(ReprojectError),
+    /// Localization failed (coverage, resolution, prior outside the map, buffers).
+    Localize(LocalizeError),
+    /// A scratch buffer is shorter than [`scratch_sizes`] asks.
+    ScratchTooSmall,
 }
 
-impl From<CameraError> for FlightError {
-    fn from(e: CameraError) -> Self {
-        FlightError::Camera(e)
+impl From<ReprojectError> for FlightError {
+    fn from(e: ReprojectError) -> Self {
+        FlightError::Reproject(e)
     }
 }
 
-/// A frame whose maximum is at or below this grey level is black.
-pub const BLACK_LEVEL: u8 = 4;
-/// A frame whose minimum is at or above this grey level is saturated.
-pub const SATURATED_LEVEL: u8 = 251;
+impl From<LocalizeError> for FlightError {
+    fn from(e: LocalizeError) -> Self {
+        FlightError::Localize(e)
+    }
+}
 
 /// Everything the fix reads. Frames and the map are borrowed (external memory on target).
 #[derive(Clone, Copy, Debug)]
@@ -101,38 +98,117 @@ pub struct FlightInputs<'a> {
     pub params: CameraParams,
     /// Pose prior: last known position (metres), heading (degrees clockwise from north).
     pub pose: RoverPose,
-    /// Frames in dataset order (front, right, rear, left), `width_px x height_px` each.
+    /// Frames in dataset order (front, right, rear, left), `width_px x height_px` each,
+    /// rows `width_px` bytes apart.
     pub frames: [ImageView<'a>; 4],
-    /// Orbital map region around the prior, north-up.
+    /// Orbital map region around the prior, north-up, `grid.m_per_px` metres per pixel.
     pub map: ImageView<'a>,
     /// Georeference of `map` (north-west corner, metres per pixel).
     pub map_geo: GeoRef,
 }
 
-/// Integer statistics of an 8-bit image.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Settings of the fix.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct ImageStats {
-    /// Darkest grey level.
-    pub min: u8,
-    /// Brightest grey level.
-    pub max: u8,
-    /// Sum of all grey levels.
-    pub sum: u64,
-    /// FNV-1a (32-bit) of the pixels in row-major order.
-    pub hash: u32,
+pub struct FlightConfig {
+    /// The top-down grid (default 200 x 200 cells of 0.25 m).
+    pub grid: GridSpec,
+    /// Coarse-to-fine localization settings.
+    pub localize: LocalizeConfig,
+}
+
+/// Element counts of every scratch buffer of one fix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ScratchSizes {
+    /// Primary table cells (`n * n`, 8 bytes each).
+    pub cells: usize,
+    /// Top-down image and mask, bytes each (`n * n`).
+    pub top: usize,
+    /// Localization byte scratch.
+    pub loc_bytes: usize,
+    /// Localization `f32` scratch (response maps).
+    pub loc_floats: usize,
+}
+
+/// Scratch sizes of a fix with `cfg` over a `map_w x map_h` map region (pixels).
+pub fn scratch_sizes(
+    cfg: &FlightConfig,
+    map_w: usize,
+    map_h: usize,
+) -> Result<ScratchSizes, FlightError> {
+    cfg.grid.validate()?;
+    let n = cfg.grid.n;
+    let (loc_bytes, loc_floats) = localize::buffer_sizes(n, n, map_w, map_h, &cfg.localize)?;
+    Ok(ScratchSizes {
+        cells: cfg.grid.cells(),
+        top: cfg.grid.cells(),
+        loc_bytes,
+        loc_floats,
+    })
+}
+
+/// Caller-provided working memory of one fix (static buffers on the target).
+#[derive(Debug)]
+pub struct Scratch<'a> {
+    /// Primary table, exactly [`ScratchSizes::cells`] cells.
+    pub cells: &'a mut [Cell],
+    /// Secondary taps of overlap cells (any capacity; see `reproject::DEFAULT_EXTRA`).
+    pub extra: &'a mut [Tap],
+    /// Top-down image, at least [`ScratchSizes::top`] bytes.
+    pub top: &'a mut [u8],
+    /// Validity mask, at least [`ScratchSizes::top`] bytes.
+    pub mask: &'a mut [u8],
+    /// Localization bytes, at least [`ScratchSizes::loc_bytes`].
+    pub loc_bytes: &'a mut [u8],
+    /// Localization floats, at least [`ScratchSizes::loc_floats`].
+    pub loc_floats: &'a mut [f32],
+}
+
+/// The fix part of the outputs (metres, scores as the matcher gives them).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FixSummary {
+    /// Rover east, metres.
+    pub x_m: f32,
+    /// Rover north, metres.
+    pub y_m: f32,
+    /// Fine-level NCC score of the fix, `[-1, 1]`.
+    pub score: f32,
+    /// Peak distinctiveness, `[0, 1]`.
+    pub confidence: f32,
+    /// Best coarse score.
+    pub peak_score: f32,
+    /// Second coarse peak after suppression.
+    pub second_score: f32,
+    /// The peak is on the border of the search region (a failure).
+    pub on_border: bool,
+    /// Number of candidates.
+    pub candidates: u32,
 }
 
 /// What the fix produced (bit for bit the same on host and target).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FlightOutputs {
-    /// FNV-1a over the bits of the four cameras' focal length, centre and rotation (`f32`).
-    pub camera_hash: u32,
-    /// Statistics of the four frames, dataset order.
-    pub frames: [ImageStats; 4],
-    /// Statistics of the map region.
-    pub map: ImageStats,
+    /// Table statistics.
+    pub lut: BuildStats,
+    /// What the sampling did per frame.
+    pub apply: ApplyReport,
+    /// FNV-1a of the top-down image (`n * n` bytes, row-major).
+    pub top_hash: u32,
+    /// FNV-1a of the validity mask.
+    pub mask_hash: u32,
+    /// FNV-1a of the coarse response map (`f32` bits, little-endian, row-major).
+    pub response_hash: u32,
+    /// Positions in the coarse response map.
+    pub response_len: u32,
+    /// FNV-1a of the candidates (x, y, score bits and refined flag, best first).
+    pub candidates_hash: u32,
+    /// The fix.
+    pub fix: FixSummary,
+    /// Operations of coarse and fine passes together.
+    pub ops: OpCounts,
 }
 
 const FNV_OFFSET: u32 = 0x811c_9dc5;
@@ -151,183 +227,210 @@ pub const fn fnv1a_start() -> u32 {
     FNV_OFFSET
 }
 
+fn fnv_u32s(mut h: u32, words: &[u32]) -> u32 {
+    for w in words {
+        h = fnv1a(h, &w.to_le_bytes());
+    }
+    h
+}
+
+/// Status code of a frame in reports: 0 ok, 1 missing, 2 black, 3 saturated.
+pub fn status_code(s: FrameStatus) -> u8 {
+    match s {
+        FrameStatus::Ok => 0,
+        FrameStatus::Missing => 1,
+        FrameStatus::Black => 2,
+        FrameStatus::Saturated => 3,
+    }
+}
+
 impl FlightOutputs {
     /// One 32-bit FNV-1a over every output field (little-endian).
     pub fn digest(&self) -> u32 {
-        let mut h = fnv1a(fnv1a_start(), &self.camera_hash.to_le_bytes());
-        for s in self.frames.iter().chain(core::iter::once(&self.map)) {
-            h = fnv1a(h, &[s.min, s.max]);
-            h = fnv1a(h, &s.sum.to_le_bytes());
-            h = fnv1a(h, &s.hash.to_le_bytes());
+        let l = &self.lut;
+        let a = &self.apply;
+        let f = &self.fix;
+        let s = |v: usize| v as u32;
+        let mut h = fnv_u32s(
+            fnv1a_start(),
+            &[
+                s(l.valid_cells),
+                s(l.blended_cells),
+                s(l.dropped_taps),
+                s(l.cells_per_view[0]),
+                s(l.cells_per_view[1]),
+                s(l.cells_per_view[2]),
+                s(l.cells_per_view[3]),
+                s(a.valid_cells),
+                s(a.lost_cells),
+            ],
+        );
+        for st in a.status {
+            h = fnv1a(h, &[status_code(st)]);
+        }
+        h = fnv_u32s(
+            h,
+            &[
+                self.top_hash,
+                self.mask_hash,
+                self.response_hash,
+                self.response_len,
+                self.candidates_hash,
+                f.x_m.to_bits(),
+                f.y_m.to_bits(),
+                f.score.to_bits(),
+                f.confidence.to_bits(),
+                f.peak_score.to_bits(),
+                f.second_score.to_bits(),
+                f.on_border as u32,
+                f.candidates,
+            ],
+        );
+        for v in [self.ops.macs, self.ops.windows, self.ops.downsample_px] {
+            h = fnv1a(h, &v.to_le_bytes());
         }
         h
     }
 }
 
-/// Statistics of an image, every pixel, integer only.
-pub fn image_stats(img: &ImageView<'_>) -> ImageStats {
-    let mut st = ImageStats {
-        min: u8::MAX,
-        max: 0,
-        sum: 0,
-        hash: fnv1a_start(),
-    };
-    for y in 0..img.height() {
-        if let Some(row) = img.row(y) {
-            let mut rmin = u8::MAX;
-            let mut rmax = 0u8;
-            let mut rsum = 0u32; // a row of up to 2^24 pixels cannot overflow
-            let mut h = st.hash;
-            for &p in row {
-                rmin = rmin.min(p);
-                rmax = rmax.max(p);
-                rsum += p as u32;
-                h = (h ^ p as u32).wrapping_mul(FNV_PRIME);
-            }
-            st.min = st.min.min(rmin);
-            st.max = st.max.max(rmax);
-            st.sum += rsum as u64;
-            st.hash = h;
-        }
-    }
-    st
-}
-
-fn camera_hash(h: u32, cam: &Camera) -> u32 {
-    let mut h = fnv1a(h, &cam.focal_px.to_bits().to_le_bytes());
-    for v in cam.centre.iter().chain(cam.world_to_cam.iter()) {
-        h = fnv1a(h, &v.to_bits().to_le_bytes());
-    }
-    h
-}
-
-/// Runs the fix on `inputs`, calling `clock` around every stage.
+/// Runs the whole fix on `inputs` with `cfg` in `scratch`, calling `clock` around every
+/// stage. The prior is `inputs.pose` (position and heading).
 pub fn run<C: StageClock>(
     inputs: &FlightInputs<'_>,
+    cfg: &FlightConfig,
+    scratch: &mut Scratch<'_>,
     clock: &mut C,
 ) -> Result<FlightOutputs, FlightError> {
-    let mut out = FlightOutputs::default();
+    let sizes = scratch_sizes(cfg, inputs.map.width(), inputs.map.height())?;
+    let n = cfg.grid.n;
+    let top = scratch
+        .top
+        .get_mut(..sizes.top)
+        .ok_or(FlightError::ScratchTooSmall)?;
+    let mask = scratch
+        .mask
+        .get_mut(..sizes.top)
+        .ok_or(FlightError::ScratchTooSmall)?;
+    let cells = scratch
+        .cells
+        .get_mut(..sizes.cells)
+        .ok_or(FlightError::ScratchTooSmall)?;
 
-    clock.begin(Stage::Cameras);
-    let mut h = fnv1a_start();
-    for view in View::ALL {
-        let cam = Camera::new(&inputs.params, &inputs.pose, view)?;
-        h = camera_hash(h, &cam);
+    clock.begin(Stage::LutBuild);
+    let stride = inputs.params.width_px as usize;
+    let lut = Lut::build(
+        cells,
+        scratch.extra,
+        &inputs.params,
+        &inputs.pose,
+        &cfg.grid,
+        stride,
+    )?;
+    clock.end(Stage::LutBuild);
+
+    clock.begin(Stage::Reproject);
+    let [f0, f1, f2, f3] = inputs.frames;
+    let apply = lut.apply(&[Some(f0), Some(f1), Some(f2), Some(f3)], top, mask)?;
+    clock.end(Stage::Reproject);
+    let lut_stats = *lut.stats();
+
+    clock.begin(Stage::Localize);
+    let template = ImageView::new(top, n, n).map_err(|_| FlightError::ScratchTooSmall)?;
+    let weight = ImageView::new(mask, n, n).map_err(|_| FlightError::ScratchTooSmall)?;
+    let fix = localize::localize(
+        &Ncc::default(),
+        &template,
+        &weight,
+        cfg.grid.m_per_px,
+        &inputs.map,
+        &inputs.map_geo,
+        inputs.pose.x_m,
+        inputs.pose.y_m,
+        &cfg.localize,
+        scratch.loc_bytes,
+        scratch.loc_floats,
+    )?;
+    clock.end(Stage::Localize);
+
+    let response_len = fix.coarse_grid.cols * fix.coarse_grid.rows;
+    let mut response_hash = fnv1a_start();
+    for v in scratch.loc_floats.iter().take(response_len) {
+        response_hash = fnv1a(response_hash, &v.to_bits().to_le_bytes());
     }
-    out.camera_hash = h;
-    clock.end(Stage::Cameras);
-
-    clock.begin(Stage::FrameCheck);
-    for (i, (frame, stats)) in inputs.frames.iter().zip(out.frames.iter_mut()).enumerate() {
-        let view = i as u8;
-        if frame.width() != inputs.params.width_px as usize
-            || frame.height() != inputs.params.height_px as usize
-        {
-            return Err(FlightError::FrameSize { view });
-        }
-        *stats = image_stats(frame);
-        if stats.max <= BLACK_LEVEL {
-            return Err(FlightError::BlackFrame { view });
-        }
-        if stats.min >= SATURATED_LEVEL {
-            return Err(FlightError::SaturatedFrame { view });
-        }
+    let mut candidates_hash = fnv1a_start();
+    for c in &fix.candidates {
+        candidates_hash = fnv_u32s(
+            candidates_hash,
+            &[
+                c.x_m.to_bits(),
+                c.y_m.to_bits(),
+                c.score.to_bits(),
+                c.refined as u32,
+            ],
+        );
     }
-    clock.end(Stage::FrameCheck);
-
-    clock.begin(Stage::MapCheck);
-    out.map = image_stats(&inputs.map);
-    if out.map.min == out.map.max {
-        return Err(FlightError::FlatMap);
-    }
-    clock.end(Stage::MapCheck);
-
-    Ok(out)
+    let mut ops = fix.ops_coarse;
+    ops.add(&fix.ops_fine);
+    Ok(FlightOutputs {
+        lut: lut_stats,
+        apply,
+        top_hash: fnv1a(fnv1a_start(), template.data()),
+        mask_hash: fnv1a(fnv1a_start(), weight.data()),
+        response_hash,
+        response_len: response_len as u32,
+        candidates_hash,
+        fix: FixSummary {
+            x_m: fix.x_m,
+            y_m: fix.y_m,
+            score: fix.score,
+            confidence: fix.confidence,
+            peak_score: fix.peak_score,
+            second_score: fix.second_score,
+            on_border: fix.on_border,
+            candidates: fix.candidates.len() as u32,
+        },
+        ops,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    struct Order {
-        log: [Option<(Stage, bool)>; 8],
-        n: usize,
-    }
-    impl StageClock for Order {
-        fn begin(&mut self, s: Stage) {
-            if let Some(slot) = self.log.get_mut(self.n) {
-                *slot = Some((s, true));
+    #[test]
+    fn stage_names_are_distinct_and_ordered() {
+        assert_eq!(Stage::ALL.len(), 3);
+        for (i, a) in Stage::ALL.iter().enumerate() {
+            assert_eq!(*a as usize, i);
+            for b in &Stage::ALL[i + 1..] {
+                assert_ne!(a.name(), b.name());
             }
-            self.n += 1;
         }
-        fn end(&mut self, s: Stage) {
-            if let Some(slot) = self.log.get_mut(self.n) {
-                *slot = Some((s, false));
-            }
-            self.n += 1;
-        }
-    }
-
-    fn frame_buf(seed: u8) -> [u8; 64] {
-        let mut b = [0u8; 64];
-        for (i, v) in b.iter_mut().enumerate() {
-            *v = (i as u8).wrapping_mul(37).wrapping_add(seed);
-        }
-        b
     }
 
     #[test]
-    fn stages_run_in_order_and_frames_are_checked() {
-        let params = CameraParams {
-            width_px: 8,
-            height_px: 8,
-            ..CameraParams::default()
+    fn fnv_matches_reference_values() {
+        // FNV-1a 32-bit test vectors.
+        assert_eq!(fnv1a(fnv1a_start(), b""), 0x811c_9dc5);
+        assert_eq!(fnv1a(fnv1a_start(), b"a"), 0xe40c_292c);
+        assert_eq!(fnv1a(fnv1a_start(), b"foobar"), 0xbf9c_f968);
+    }
+
+    #[test]
+    fn scratch_sizes_follow_the_grid_and_map() {
+        let cfg = FlightConfig::default();
+        let s = scratch_sizes(&cfg, 1200, 1200).unwrap();
+        assert_eq!(s.cells, 200 * 200);
+        assert_eq!(s.top, 200 * 200);
+        let small = scratch_sizes(&cfg, 400, 400).unwrap();
+        assert!(small.loc_floats < s.loc_floats);
+        let bad = FlightConfig {
+            grid: GridSpec::new(0, 0.25),
+            ..cfg
         };
-        let bufs = [frame_buf(1), frame_buf(2), frame_buf(3), frame_buf(4)];
-        let black = [0u8; 64];
-        let frames = [
-            ImageView::new(&bufs[0], 8, 8).unwrap(),
-            ImageView::new(&bufs[1], 8, 8).unwrap(),
-            ImageView::new(&bufs[2], 8, 8).unwrap(),
-            ImageView::new(&bufs[3], 8, 8).unwrap(),
-        ];
-        let mut inputs = FlightInputs {
-            params,
-            pose: RoverPose::level(1.0, 2.0, 0.0, 30.0),
-            frames,
-            map: ImageView::new(&bufs[0], 8, 8).unwrap(),
-            map_geo: GeoRef::new(0.0, 8.0, 1.0).unwrap(),
-        };
-        let mut clock = Order {
-            log: [None; 8],
-            n: 0,
-        };
-        let out = run(&inputs, &mut clock).unwrap();
-        assert_eq!(clock.n, 6);
-        assert_eq!(clock.log[0], Some((Stage::Cameras, true)));
-        assert_eq!(clock.log[5], Some((Stage::MapCheck, false)));
-        let s = out.frames[1];
-        let sum: u64 = bufs[1].iter().map(|&v| v as u64).sum();
-        assert_eq!(s.sum, sum);
-        assert_eq!(s.hash, fnv1a(fnv1a_start(), &bufs[1]));
-        assert_eq!(s.min, *bufs[1].iter().min().unwrap());
-        // Same inputs, same digest; a changed pose changes the camera hash.
-        assert_eq!(run(&inputs, &mut NoClock).unwrap().digest(), out.digest());
-        inputs.pose.heading_deg = 31.0;
-        let moved = run(&inputs, &mut NoClock).unwrap();
-        assert_ne!(moved.camera_hash, out.camera_hash);
-        assert_ne!(moved.digest(), out.digest());
-        // A black right view is rejected by index.
-        inputs.frames[1] = ImageView::new(&black, 8, 8).unwrap();
-        assert_eq!(
-            run(&inputs, &mut NoClock),
-            Err(FlightError::BlackFrame { view: 1 })
-        );
-        // A frame of the wrong size too.
-        inputs.frames[1] = ImageView::new(&bufs[1], 4, 16).unwrap();
-        assert_eq!(
-            run(&inputs, &mut NoClock),
-            Err(FlightError::FrameSize { view: 1 })
-        );
+        assert!(matches!(
+            scratch_sizes(&bad, 1200, 1200),
+            Err(FlightError::Reproject(ReprojectError::BadGridSize))
+        ));
     }
 }

@@ -29,21 +29,36 @@ mod vectors {
     include!(concat!(env!("OUT_DIR"), "/vectors.rs"));
 }
 
+use core::ptr::addr_of_mut;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use orbfix::camera::{CameraParams, RoverPose};
-use orbfix::flight_run::{self, FlightInputs, Stage};
+use orbfix::flight_run::{self, FlightConfig, FlightInputs, Scratch, Stage};
 use orbfix::geo::GeoRef;
 use orbfix::image::ImageView;
+use orbfix::localize::LocalizeConfig;
+use orbfix::reproject::{table_len, GridSpec, LutStorage, DEFAULT_EXTRA};
 use report::Line;
 
-/// The four frames, dataset order, packed (external memory).
+/// The four frames, dataset order, packed (external memory: inputs).
 #[link_section = ".psram.frames"]
 static FRAMES: [u8; vectors::FRAMES_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/frames.bin"));
-/// The orbital map region (external memory).
+/// The orbital map region (external memory: inputs).
 #[link_section = ".psram.map"]
 static MAP: [u8; vectors::MAP_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/map.bin"));
 
 const FRAME_LEN: usize = vectors::WIDTH * vectors::HEIGHT;
+const CELLS: usize = table_len(vectors::GRID_N);
+
+/// The reprojection table, 8 bytes per cell plus the overlap taps: it does not fit the
+/// working-RAM budget, so it lives in external memory and is accounted separately
+/// (`external_scratch_bytes` of the budget).
+#[link_section = ".xscratch.lut"]
+static mut LUT: LutStorage<CELLS, DEFAULT_EXTRA> = LutStorage::new();
+// Working memory in SRAM (.bss): top-down image, mask and the localizer's scratch.
+static mut TOP: [u8; CELLS] = [0; CELLS];
+static mut MASK: [u8; CELLS] = [0; CELLS];
+static mut LOC_BYTES: [u8; vectors::LOC_BYTES] = [0; vectors::LOC_BYTES];
+static mut LOC_FLOATS: [f32; vectors::LOC_FLOATS] = [0.0; vectors::LOC_FLOATS];
 
 fn inputs() -> Option<FlightInputs<'static>> {
     let params = CameraParams {
@@ -82,10 +97,28 @@ fn inputs() -> Option<FlightInputs<'static>> {
 #[entry]
 fn main() -> ! {
     Line::new().str("ORBFIX-FW 1").send();
+    let cfg = FlightConfig {
+        grid: GridSpec::new(vectors::GRID_N, vectors::GRID_M_PER_PX),
+        localize: LocalizeConfig::default(),
+    };
+    // Safety: `main` runs once and is the only code that touches these statics (the
+    // SysTick and HardFault handlers do not), so these are the only references to them.
+    let mut scratch = unsafe {
+        let lut = &mut *addr_of_mut!(LUT);
+        Scratch {
+            cells: &mut lut.cells,
+            extra: &mut lut.extra,
+            top: &mut *addr_of_mut!(TOP),
+            mask: &mut *addr_of_mut!(MASK),
+            loc_bytes: &mut *addr_of_mut!(LOC_BYTES),
+            loc_floats: &mut *addr_of_mut!(LOC_FLOATS),
+        }
+    };
     let mut clock = clock::StageTicks::start();
     let t0 = clock.now();
     let result = match inputs() {
-        Some(inp) => flight_run::run(&inp, &mut clock).map_err(|e| report::flight_error(&e)),
+        Some(inp) => flight_run::run(&inp, &cfg, &mut scratch, &mut clock)
+            .map_err(|e| report::flight_error(&e)),
         None => Err("bad test vectors (sizes or georeference)"),
     };
     let total = clock.now().wrapping_sub(t0);
@@ -110,17 +143,7 @@ fn main() -> ! {
 
     let mut ok = true;
     match &result {
-        Ok(out) => {
-            Line::new()
-                .str("RESULT camera_hash ")
-                .hex32(out.camera_hash)
-                .send();
-            for (i, s) in out.frames.iter().enumerate() {
-                report::stats(i as u8, s);
-            }
-            report::stats(4, &out.map);
-            Line::new().str("RESULT digest ").hex32(out.digest()).send();
-        }
+        Ok(out) => report::outputs(out),
         Err(what) => {
             ok = false;
             Line::new().str("END ERR ").str(what).send();

@@ -1,7 +1,7 @@
 //! Report lines over semihosting without `core::fmt` (which would bring panic paths and
 //! several kB of code): a fixed line buffer, decimal and hex numbers, SYS_WRITE0.
 
-use orbfix::flight_run::{FlightError, ImageStats};
+use orbfix::flight_run::{status_code, FlightError, FlightOutputs};
 
 const CAP: usize = 160;
 
@@ -87,30 +87,83 @@ impl Line {
     }
 }
 
-/// `RESULT stats<i> <min> <max> <sum> <hash>` (i = 0..4 frames, 4 = map).
-pub fn stats(i: u8, s: &ImageStats) {
-    Line::new()
-        .str("RESULT stats")
-        .u64(i as u64)
+/// The `RESULT` lines of a fix (format shared with `orbfix_host::budget::host_results`;
+/// `f32` as exact bit patterns).
+pub fn outputs(out: &FlightOutputs) {
+    let l = &out.lut;
+    let a = &out.apply;
+    let f = &out.fix;
+    let mut line = Line::new().str("RESULT lut");
+    for v in [
+        l.valid_cells,
+        l.blended_cells,
+        l.dropped_taps,
+        l.cells_per_view[0],
+        l.cells_per_view[1],
+        l.cells_per_view[2],
+        l.cells_per_view[3],
+    ] {
+        line = line.str(" ").u64(v as u64);
+    }
+    line.send();
+    let mut line = Line::new().str("RESULT apply");
+    for s in a.status {
+        line = line.str(" ").u64(status_code(s) as u64);
+    }
+    line.str(" ")
+        .u64(a.valid_cells as u64)
         .str(" ")
-        .u64(s.min as u64)
-        .str(" ")
-        .u64(s.max as u64)
-        .str(" ")
-        .u64(s.sum)
-        .str(" ")
-        .hex32(s.hash)
+        .u64(a.lost_cells as u64)
         .send();
+    Line::new()
+        .str("RESULT top_hash ")
+        .hex32(out.top_hash)
+        .send();
+    Line::new()
+        .str("RESULT mask_hash ")
+        .hex32(out.mask_hash)
+        .send();
+    Line::new()
+        .str("RESULT response ")
+        .hex32(out.response_hash)
+        .str(" ")
+        .u64(out.response_len as u64)
+        .send();
+    Line::new()
+        .str("RESULT candidates ")
+        .hex32(out.candidates_hash)
+        .str(" ")
+        .u64(f.candidates as u64)
+        .send();
+    let mut line = Line::new().str("RESULT fix");
+    for v in [
+        f.x_m,
+        f.y_m,
+        f.score,
+        f.confidence,
+        f.peak_score,
+        f.second_score,
+    ] {
+        line = line.str(" ").hex32(v.to_bits());
+    }
+    line.str(" ").u64(f.on_border as u64).send();
+    Line::new()
+        .str("RESULT ops ")
+        .u64(out.ops.macs)
+        .str(" ")
+        .u64(out.ops.windows)
+        .str(" ")
+        .u64(out.ops.downsample_px)
+        .send();
+    Line::new().str("RESULT digest ").hex32(out.digest()).send();
 }
 
 /// A short text for a flight error.
 pub fn flight_error(e: &FlightError) -> &'static str {
     match e {
-        FlightError::Camera(_) => "camera or pose out of range",
-        FlightError::FrameSize { .. } => "frame size does not match the rig",
-        FlightError::BlackFrame { .. } => "black frame",
-        FlightError::SaturatedFrame { .. } => "saturated frame",
-        FlightError::FlatMap => "flat map",
+        FlightError::Reproject(_) => "reprojection failed (camera, grid, frame or buffer sizes)",
+        FlightError::Localize(_) => "localization failed (coverage, resolution, prior or buffers)",
+        FlightError::ScratchTooSmall => "scratch buffers too small",
     }
 }
 

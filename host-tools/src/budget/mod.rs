@@ -10,7 +10,7 @@
 pub mod vectors;
 
 use anyhow::{bail, Context, Result};
-use orbfix::flight_run::{FlightOutputs, ImageStats, Stage};
+use orbfix::flight_run::{status_code, FlightConfig, FlightOutputs, Stage};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -34,19 +34,68 @@ const FLASH: (u64, u64) = (0x0000_0000, 0x0040_0000);
 const SRAM: (u64, u64) = (0x2000_0000, 0x2040_0000);
 const PSRAM: (u64, u64) = (0x6000_0000, 0x6100_0000);
 
-/// The `RESULT` lines (key, value) the firmware prints for `out`, in its order and format.
+/// The `RESULT` lines (key, value) the firmware prints for `out`, in its order and format
+/// (`f32` as exact bit patterns).
 pub fn host_results(out: &FlightOutputs) -> Vec<(String, String)> {
-    let stats = |s: &ImageStats| format!("{} {} {} 0x{:08x}", s.min, s.max, s.sum, s.hash);
-    let mut r = vec![(
-        "camera_hash".to_string(),
-        format!("0x{:08x}", out.camera_hash),
-    )];
-    for (i, s) in out.frames.iter().enumerate() {
-        r.push((format!("stats{i}"), stats(s)));
-    }
-    r.push(("stats4".to_string(), stats(&out.map)));
-    r.push(("digest".to_string(), format!("0x{:08x}", out.digest())));
-    r
+    let l = &out.lut;
+    let a = &out.apply;
+    let f = &out.fix;
+    let b = |v: f32| format!("0x{:08x}", v.to_bits());
+    let st: Vec<String> = a
+        .status
+        .iter()
+        .map(|s| status_code(*s).to_string())
+        .collect();
+    vec![
+        (
+            "lut".to_string(),
+            format!(
+                "{} {} {} {} {} {} {}",
+                l.valid_cells,
+                l.blended_cells,
+                l.dropped_taps,
+                l.cells_per_view[0],
+                l.cells_per_view[1],
+                l.cells_per_view[2],
+                l.cells_per_view[3]
+            ),
+        ),
+        (
+            "apply".to_string(),
+            format!("{} {} {}", st.join(" "), a.valid_cells, a.lost_cells),
+        ),
+        ("top_hash".to_string(), format!("0x{:08x}", out.top_hash)),
+        ("mask_hash".to_string(), format!("0x{:08x}", out.mask_hash)),
+        (
+            "response".to_string(),
+            format!("0x{:08x} {}", out.response_hash, out.response_len),
+        ),
+        (
+            "candidates".to_string(),
+            format!("0x{:08x} {}", out.candidates_hash, f.candidates),
+        ),
+        (
+            "fix".to_string(),
+            format!(
+                "{} {} {} {} {} {} {}",
+                b(f.x_m),
+                b(f.y_m),
+                b(f.score),
+                b(f.confidence),
+                b(f.peak_score),
+                b(f.second_score),
+                f.on_border as u8
+            ),
+        ),
+        (
+            "ops".to_string(),
+            format!(
+                "{} {} {}",
+                out.ops.macs, out.ops.windows, out.ops.downsample_px
+            ),
+        ),
+        ("digest".to_string(), format!("0x{:08x}", out.digest())),
+    ]
 }
 
 /// What the firmware reported.
@@ -130,6 +179,8 @@ pub struct ElfSizes {
     pub static_ram_bytes: u64,
     /// Inputs in external memory (`.psram`: frames and map), not working memory.
     pub external_input_bytes: u64,
+    /// Working tables in external memory (`.xscratch`: the reprojection table).
+    pub external_scratch_bytes: u64,
     /// Size of the stack region (memory.x STACK), bytes.
     pub stack_region_bytes: u64,
 }
@@ -161,7 +212,11 @@ pub fn elf_sizes(data: &[u8]) -> Result<ElfSizes> {
         if inside(sec.address(), SRAM) {
             s.static_ram_bytes += sec.size();
         } else if inside(sec.address(), PSRAM) {
-            s.external_input_bytes += sec.size();
+            if sec.name().is_ok_and(|n| n.starts_with(".xscratch")) {
+                s.external_scratch_bytes += sec.size();
+            } else {
+                s.external_input_bytes += sec.size();
+            }
         }
     }
     let sym = |name: &str| {
@@ -176,6 +231,97 @@ pub fn elf_sizes(data: &[u8]) -> Result<ElfSizes> {
         bail!("the ELF has nothing to load into flash (0x0..0x400000): is it the orbfix firmware for mps2-an500?");
     }
     Ok(s)
+}
+
+/// Whether a symbol name is one of core's panic entry points (or the panic handler).
+fn is_panic_symbol(name: &str) -> bool {
+    [
+        "panic",
+        "unwrap_failed",
+        "expect_failed",
+        "index_fail",
+        "len_fail",
+        "order_fail",
+    ]
+    .iter()
+    .any(|k| name.contains(k))
+}
+
+/// Call sites of panic entry points in a Thumb-2 ELF: `(caller, callee, calls)`, demangled,
+/// callers that are themselves panic functions left out. Found by decoding every 32-bit
+/// `BL` / `B.W` in executable sections and matching its target against panic symbols, so
+/// it works on the linked firmware without a disassembler.
+pub fn panic_sites(data: &[u8]) -> Result<Vec<(String, String, usize)>> {
+    use object::{Object, ObjectSection, ObjectSymbol, SectionKind, SymbolKind};
+    let file = object::File::parse(data).context("the firmware file is not a valid ELF")?;
+    // Function symbols: (start, end, demangled name); Thumb addresses have bit 0 set.
+    let mut funcs: Vec<(u64, u64, String)> = file
+        .symbols()
+        .filter(|s| s.kind() == SymbolKind::Text)
+        .filter_map(|s| {
+            let name = s.name().ok()?;
+            let start = s.address() & !1;
+            Some((
+                start,
+                start + s.size().max(2),
+                format!("{:#}", rustc_demangle::demangle(name)),
+            ))
+        })
+        .collect();
+    funcs.sort();
+    let panics: std::collections::HashSet<u64> = funcs
+        .iter()
+        .filter(|f| is_panic_symbol(&f.2))
+        .map(|f| f.0)
+        .collect();
+    let name_at = |addr: u64| -> Option<&(u64, u64, String)> {
+        let i = funcs.partition_point(|f| f.0 <= addr);
+        funcs.get(i.checked_sub(1)?).filter(|f| addr < f.1)
+    };
+    let mut sites: BTreeMap<(String, String), usize> = BTreeMap::new();
+    for sec in file.sections().filter(|s| s.kind() == SectionKind::Text) {
+        let bytes = sec
+            .data()
+            .context("cannot read a code section of the firmware")?;
+        let base = sec.address();
+        let hw = |i: usize| -> Option<u32> {
+            Some(u16::from_le_bytes([*bytes.get(i)?, *bytes.get(i + 1)?]) as u32)
+        };
+        let mut i = 0;
+        while i + 4 <= bytes.len() {
+            let (Some(h1), Some(h2)) = (hw(i), hw(i + 2)) else {
+                break;
+            };
+            // BL (T1): 11110 S imm10 | 11 J1 1 J2 imm11; B.W (T4): ... | 10 J1 1 J2 imm11.
+            if h1 >> 11 == 0b11110 && (h2 >> 14 == 0b11 || h2 >> 14 == 0b10) && (h2 >> 12) & 1 == 1
+            {
+                let s = (h1 >> 10) & 1;
+                let (j1, j2) = ((h2 >> 13) & 1, (h2 >> 11) & 1);
+                let (i1, i2) = (!(j1 ^ s) & 1, !(j2 ^ s) & 1);
+                let imm = (s << 24)
+                    | (i1 << 23)
+                    | (i2 << 22)
+                    | ((h1 & 0x3FF) << 12)
+                    | ((h2 & 0x7FF) << 1);
+                let off = ((imm << 7) as i32) >> 7; // sign-extend 25 bits
+                let pc = base + i as u64 + 4;
+                let target = (pc as i64 + off as i64) as u64;
+                if panics.contains(&target) {
+                    let caller = name_at(base + i as u64)
+                        .map(|f| f.2.clone())
+                        .unwrap_or_else(|| "?".into());
+                    if !is_panic_symbol(&caller) {
+                        let callee = name_at(target)
+                            .map(|f| f.2.clone())
+                            .unwrap_or_else(|| "?".into());
+                        *sites.entry((caller, callee)).or_default() += 1;
+                    }
+                }
+            }
+            i += 2;
+        }
+    }
+    Ok(sites.into_iter().map(|((a, b), n)| (a, b, n)).collect())
 }
 
 /// One stage of the budget table.
@@ -233,10 +379,39 @@ pub struct Budget {
     pub mismatches: Vec<String>,
     /// The firmware ended with `END OK`.
     pub firmware_ok: bool,
+    /// No panic path remains: the firmware linked with the undefined-symbol panic handler.
+    pub panic_free: bool,
+    /// Where panic paths remain (`caller -> panic function (calls)`), when not panic free.
+    pub panic_sites: Vec<String>,
+    /// Reprojection table and other working tables placed in external memory because they
+    /// do not fit the SRAM budget, bytes (counted in `working_total_bytes`).
+    pub external_scratch_bytes: u64,
+    /// Static RAM + stack peak + external scratch: all working memory, bytes.
+    pub working_total_bytes: u64,
+    /// The fix the firmware computed: east, north (metres), its distance to the true
+    /// position (metres) and its confidence.
+    pub fix: FixReport,
     /// What the test vectors were.
     pub vectors: String,
     /// Guest instructions per SysTick tick.
     pub instructions_per_tick: u64,
+}
+
+/// The fix of the budget run, for the record (the budget is about cost, not accuracy).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct FixReport {
+    /// Rover east, metres.
+    pub x_m: f32,
+    /// Rover north, metres.
+    pub y_m: f32,
+    /// Distance to the position the frames were rendered at, metres.
+    pub error_m: f32,
+    /// Distance of the prior from the true position, metres.
+    pub prior_error_m: f32,
+    /// Confidence, `[0, 1]`.
+    pub confidence: f32,
+    /// Peak on the search border (a failure).
+    pub on_border: bool,
 }
 
 /// Settings of the time estimates.
@@ -257,13 +432,19 @@ impl Estimate {
     }
 }
 
-/// Work units of a stage for per-unit rates.
-pub fn stage_units(stage: &str, v: &Vectors) -> Option<(u64, &'static str)> {
+/// Work units of a stage for per-unit rates: grid cells for the table, output pixels for
+/// the reprojection, multiply-accumulates (as the matcher counts them) for localization.
+pub fn stage_units(
+    stage: &str,
+    cfg: &FlightConfig,
+    out: &FlightOutputs,
+) -> Option<(u64, &'static str)> {
     let s = Stage::ALL.into_iter().find(|s| s.name() == stage)?;
+    let cells = cfg.grid.cells() as u64;
     match s {
-        Stage::Cameras => Some((4, "camera")),
-        Stage::FrameCheck => Some((4 * v.frame_pixels() as u64, "frame pixel")),
-        Stage::MapCheck => Some(((v.map_w * v.map_h) as u64, "map pixel")),
+        Stage::LutBuild => Some((cells, "grid cell")),
+        Stage::Reproject => Some((cells, "output pixel")),
+        Stage::Localize => Some((out.ops.macs, "MAC")),
     }
 }
 
@@ -272,14 +453,17 @@ pub fn assemble(
     est: &Estimate,
     report: &FirmwareReport,
     sizes: &ElfSizes,
-    expected: &[(String, String)],
+    cfg: &FlightConfig,
+    host: &FlightOutputs,
     v: &Vectors,
+    panic_sites: &[(String, String, usize)],
 ) -> Budget {
+    let expected = host_results(host);
     let mut stages = BTreeMap::new();
     let mut order = Vec::new();
     for (name, ticks) in &report.stages {
         let insn = ticks * INSTRUCTIONS_PER_TICK;
-        let units = stage_units(name, v);
+        let units = stage_units(name, cfg, host);
         stages.insert(
             name.clone(),
             StageBudget {
@@ -293,7 +477,7 @@ pub fn assemble(
         order.push(name.clone());
     }
     let mut mismatches = Vec::new();
-    for (k, want) in expected {
+    for (k, want) in &expected {
         let got = report
             .results
             .iter()
@@ -329,6 +513,26 @@ pub fn assemble(
         ram_budget_bytes: RAM_BUDGET_BYTES,
         flash_bytes: sizes.flash_bytes,
         external_input_bytes: sizes.external_input_bytes,
+        external_scratch_bytes: sizes.external_scratch_bytes,
+        working_total_bytes: sizes.static_ram_bytes
+            + report.stack_peak_bytes
+            + sizes.external_scratch_bytes,
+        panic_free: panic_sites.is_empty(),
+        panic_sites: panic_sites
+            .iter()
+            .map(|(a, b, n)| format!("{a} -> {b} ({n})"))
+            .collect(),
+        fix: {
+            let d = |x: f32, y: f32| (x - v.truth_m.0).hypot(y - v.truth_m.1);
+            FixReport {
+                x_m: host.fix.x_m,
+                y_m: host.fix.y_m,
+                error_m: d(host.fix.x_m, host.fix.y_m),
+                prior_error_m: d(v.pose.x_m, v.pose.y_m),
+                confidence: host.fix.confidence,
+                on_border: host.fix.on_border,
+            }
+        },
         bit_exact: report.ok && mismatches.is_empty() && !expected.is_empty(),
         mismatches,
         firmware_ok: report.ok,

@@ -5,9 +5,10 @@
 use super::write_atomic;
 use anyhow::{ensure, Context, Result};
 use orbfix::camera::{CameraParams, RoverPose};
-use orbfix::flight_run::{self, FlightInputs, FlightOutputs, NoClock};
+use orbfix::flight_run::{self, FlightConfig, FlightInputs, FlightOutputs, NoClock, Scratch};
 use orbfix::geo::GeoRef;
 use orbfix::image::ImageView;
+use orbfix::reproject::{Cell, Tap};
 use std::path::Path;
 
 /// Everything the firmware embeds.
@@ -15,8 +16,10 @@ use std::path::Path;
 pub struct Vectors {
     /// Camera rig.
     pub params: CameraParams,
-    /// Pose prior.
+    /// Pose prior (where the fix starts from; the map is centred on it).
     pub pose: RoverPose,
+    /// True rover position the frames were rendered at, metres (east, north).
+    pub truth_m: (f32, f32),
     /// Four frames, dataset order (front, right, rear, left), packed rows.
     pub frames: Vec<u8>,
     /// Map region, north-up, packed rows.
@@ -72,15 +75,18 @@ fn texture(w: usize, h: usize, cell: usize, rng: &mut SplitMix) -> Vec<u8> {
 }
 
 impl Vectors {
-    /// Deterministic synthetic vectors of `seed`: the default rig (640 x 360, 90 deg HFOV,
-    /// 2 m, 15 deg down) at size `width_px x height_px`, value-noise frames, and a map of
-    /// `map_size_m` square at `map_m_per_px` centred on the prior.
+    /// Deterministic synthetic vectors of `seed`: a value-noise orbital map of
+    /// `map_size_m` square at `m_per_px` (the top-down grid's resolution) centred on the
+    /// prior, and the four frames of the default rig (90 deg HFOV, 2 m, 15 deg down) at
+    /// `width_px x height_px`, rendered over that map as flat ground
+    /// ([`crate::reproject_ref::render_flat_ground`]) from a true position a few metres
+    /// from the prior.
     pub fn synthetic(
         seed: u64,
         width_px: u32,
         height_px: u32,
         map_size_m: f32,
-        map_m_per_px: f32,
+        m_per_px: f32,
     ) -> Result<Self> {
         let params = CameraParams {
             width_px,
@@ -91,13 +97,13 @@ impl Vectors {
             .validate()
             .map_err(|e| anyhow::anyhow!("bad camera size {width_px} x {height_px}: {e:?}"))?;
         ensure!(
-            map_size_m.is_finite() && map_m_per_px.is_finite() && map_m_per_px > 0.0,
-            "map size {map_size_m} m and resolution {map_m_per_px} m/px must be positive numbers"
+            map_size_m.is_finite() && m_per_px.is_finite() && m_per_px > 0.0,
+            "map size {map_size_m} m and resolution {m_per_px} m/px must be positive numbers"
         );
-        let n = (map_size_m / map_m_per_px).round() as usize;
+        let n = (map_size_m / m_per_px).round() as usize;
         ensure!(
             (8..=4096).contains(&n),
-            "map of {map_size_m} m at {map_m_per_px} m/px is {n} px across; use 8..4096"
+            "map of {map_size_m} m at {m_per_px} m/px is {n} px across; use 8..4096"
         );
         let mut rng = SplitMix(seed ^ 0x6F72_6266_6978);
         let pose = RoverPose::level(
@@ -106,24 +112,52 @@ impl Vectors {
             0.0,
             (rng.next() % 360) as f32,
         );
-        let (w, h) = (width_px as usize, height_px as usize);
-        let mut frames = Vec::with_capacity(4 * w * h);
-        for _ in 0..4 {
-            frames.extend(texture(w, h, 24, &mut rng));
-        }
-        let map = texture(n, n, 16, &mut rng);
-        let map_geo = GeoRef::centred(pose.x_m, pose.y_m, n, n, map_m_per_px)
+        // The prior is off by up to +-10 m in each axis.
+        let off = |r: u64| (r % 2001) as f32 * 0.01 - 10.0;
+        let truth_m = (pose.x_m + off(rng.next()), pose.y_m + off(rng.next()));
+        let map = texture(n, n, 12, &mut rng);
+        let map_geo = GeoRef::centred(pose.x_m, pose.y_m, n, n, m_per_px)
             .map_err(|e| anyhow::anyhow!("bad map georeference: {e:?}"))?;
+        let albedo = |x: f64, y: f64| {
+            let (c, r) = (
+                (x - map_geo.origin_x_m as f64) / m_per_px as f64 - 0.5,
+                (map_geo.origin_y_m as f64 - y) / m_per_px as f64 - 0.5,
+            );
+            if !(c >= 0.0 && r >= 0.0 && c < (n - 1) as f64 && r < (n - 1) as f64) {
+                return 128.0;
+            }
+            let (c0, r0) = (c as usize, r as usize);
+            let (tc, tr) = (c - c0 as f64, r - r0 as f64);
+            let p = |i: usize, j: usize| map[j * n + i] as f64;
+            let top = p(c0, r0) * (1.0 - tc) + p(c0 + 1, r0) * tc;
+            let bot = p(c0, r0 + 1) * (1.0 - tc) + p(c0 + 1, r0 + 1) * tc;
+            top * (1.0 - tr) + bot * tr
+        };
+        let true_pose = RoverPose {
+            x_m: truth_m.0,
+            y_m: truth_m.1,
+            ..pose
+        };
+        let views = crate::reproject_ref::render_flat_ground(&params, &true_pose, albedo)?;
+        let mut frames = Vec::with_capacity(4 * (width_px * height_px) as usize);
+        for v in &views {
+            frames.extend_from_slice(v.as_raw());
+        }
         Ok(Self {
             params,
             pose,
+            truth_m,
             frames,
             map,
             map_w: n,
             map_h: n,
             map_geo,
             source: format!(
-                "synthetic value noise, seed {seed}, frames 4 x {w} x {h}, map {n} x {n} px at {map_m_per_px} m/px ({map_size_m} m)"
+                "synthetic (seed {seed}): value-noise map {n} x {n} px at {m_per_px} m/px \
+                 ({map_size_m} m), four {width_px} x {height_px} frames rendered over it as flat \
+                 ground {:.2} m east and {:.2} m north of the prior",
+                truth_m.0 - pose.x_m,
+                truth_m.1 - pose.y_m
             ),
         })
     }
@@ -164,14 +198,34 @@ impl Vectors {
         })
     }
 
-    /// The host's run of the core on these vectors (what the firmware must reproduce).
-    pub fn host_run(&self) -> Result<FlightOutputs> {
-        flight_run::run(&self.inputs()?, &mut NoClock)
+    /// The host's run of the core on these vectors with `cfg` (what the firmware must
+    /// reproduce), in heap scratch of the sizes the core asks for.
+    pub fn host_run(&self, cfg: &FlightConfig) -> Result<FlightOutputs> {
+        let sz = flight_run::scratch_sizes(cfg, self.map_w, self.map_h)
+            .map_err(|e| anyhow::anyhow!("bad flight configuration: {e:?}"))?;
+        let mut cells = vec![Cell::default(); sz.cells];
+        let mut extra = vec![Tap::default(); orbfix::reproject::DEFAULT_EXTRA];
+        let mut top = vec![0u8; sz.top];
+        let mut mask = vec![0u8; sz.top];
+        let mut loc_bytes = vec![0u8; sz.loc_bytes];
+        let mut loc_floats = vec![0f32; sz.loc_floats];
+        let mut scratch = Scratch {
+            cells: &mut cells,
+            extra: &mut extra,
+            top: &mut top,
+            mask: &mut mask,
+            loc_bytes: &mut loc_bytes,
+            loc_floats: &mut loc_floats,
+        };
+        flight_run::run(&self.inputs()?, cfg, &mut scratch, &mut NoClock)
             .map_err(|e| anyhow::anyhow!("the core rejected the test vectors: {e:?}"))
     }
 
     /// Writes `vectors.rs`, `frames.bin` and `map.bin` into `dir` (each atomically).
-    pub fn write(&self, dir: &Path) -> Result<()> {
+    /// `vectors.rs` also carries the scratch sizes of `cfg` for the firmware's static buffers.
+    pub fn write(&self, dir: &Path, cfg: &FlightConfig) -> Result<()> {
+        let sz = flight_run::scratch_sizes(cfg, self.map_w, self.map_h)
+            .map_err(|e| anyhow::anyhow!("bad flight configuration: {e:?}"))?;
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create the vectors folder {}", dir.display()))?;
         let f = |v: f32| format!("f32::from_bits(0x{:08x})", v.to_bits());
@@ -189,7 +243,9 @@ impl Vectors {
              pub const MAP_W: usize = {};\npub const MAP_H: usize = {};\n\
              pub const MAP_LEN: usize = {};\n\
              /// origin_x_m (west edge), origin_y_m (north edge), m_per_px.\n\
-             pub const MAP_GEO: [f32; 3] = [{}, {}, {}];\n",
+             pub const MAP_GEO: [f32; 3] = [{}, {}, {}];\n\
+             pub const GRID_N: usize = {};\npub const GRID_M_PER_PX: f32 = {};\n\
+             pub const LOC_BYTES: usize = {};\npub const LOC_FLOATS: usize = {};\n",
             self.source,
             p.width_px,
             p.height_px,
@@ -209,6 +265,10 @@ impl Vectors {
             f(g.origin_x_m),
             f(g.origin_y_m),
             f(g.m_per_px),
+            cfg.grid.n,
+            f(cfg.grid.m_per_px),
+            sz.loc_bytes,
+            sz.loc_floats,
         );
         write_atomic(&dir.join("frames.bin"), &self.frames)?;
         write_atomic(&dir.join("map.bin"), &self.map)?;

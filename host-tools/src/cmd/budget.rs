@@ -2,6 +2,7 @@
 //! timing and memory budget (docs/timing-budget.md and a JSON file).
 
 use anyhow::{bail, ensure, Context, Result};
+use orbfix::flight_run::FlightConfig;
 use orbfix_host::budget::{self, Estimate, Vectors};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -70,9 +71,10 @@ pub struct Args {
     /// Side of the orbital map region, metres.
     #[arg(long, default_value_t = 300.0)]
     pub map_size_m: f32,
-    /// Orbital map resolution, metres per pixel.
-    #[arg(long, default_value_t = 0.5)]
-    pub map_m_per_px: f32,
+    /// Measure even if the firmware is not panic free (it is then built with its
+    /// `allow-panic` feature, and the budget records `panic_free: false` and where).
+    #[arg(long)]
+    pub allow_panic: bool,
     /// Give up on QEMU after this many seconds.
     #[arg(long, default_value_t = 300)]
     pub qemu_timeout_s: u64,
@@ -131,29 +133,56 @@ fn toolchain_env(repo: &Path, given: Option<PathBuf>) -> Result<PathBuf> {
     Ok(PathBuf::from(last.trim()))
 }
 
+/// Why a firmware build failed.
+enum BuildError {
+    /// The link failed because a panic path remains (the no-panic check).
+    PanicPath,
+    /// Anything else.
+    Other(anyhow::Error),
+}
+
+const PANIC_SYMBOL: &str = "orbfix_firmware_error_a_panic_path_remains";
+
 fn build_firmware(
     repo: &Path,
     env_file: &Path,
     vectors: &Path,
     target_dir: &Path,
-) -> Result<PathBuf> {
-    eprintln!("budget: building firmware/ for thumbv7em-none-eabihf");
-    let status = Command::new("bash")
+    allow_panic: bool,
+) -> std::result::Result<PathBuf, BuildError> {
+    eprintln!(
+        "budget: building firmware/ for thumbv7em-none-eabihf{}",
+        if allow_panic { " (allow-panic)" } else { "" }
+    );
+    let features = if allow_panic {
+        "--features allow-panic"
+    } else {
+        ""
+    };
+    let out = Command::new("bash")
         .arg("-c")
-        .arg("set -e; source \"$1\"; cd firmware; cargo build --release $ORBFIX_FLIGHT_CARGO_FLAGS")
+        .arg(format!(
+            "set -e; source \"$1\"; cd firmware; cargo build --release {features} $ORBFIX_FLIGHT_CARGO_FLAGS"
+        ))
         .arg("bash")
         .arg(env_file)
         .current_dir(repo)
         .env("ORBFIX_VECTORS_DIR", vectors)
         .env("CARGO_TARGET_DIR", target_dir)
-        .status()
-        .context("cannot run cargo for the firmware")?;
-    ensure!(
-        status.success(),
-        "building the firmware failed (messages above). An undefined symbol \
-         'orbfix_firmware_error_a_panic_path_remains...' means some code can still panic: \
-         see docs/flight-target.md"
-    );
+        .stdout(Stdio::inherit())
+        .stderr(Stdio::piped())
+        .output()
+        .map_err(|e| BuildError::Other(anyhow::Error::new(e).context("cannot run cargo for the firmware")))?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success() {
+        if err.contains(PANIC_SYMBOL) {
+            return Err(BuildError::PanicPath);
+        }
+        eprint!("{err}");
+        return Err(BuildError::Other(anyhow::anyhow!(
+            "building the firmware failed (cargo's messages are above)"
+        )));
+    }
     Ok(target_dir.join("thumbv7em-none-eabihf/release/orbfix-firmware"))
 }
 
@@ -227,16 +256,16 @@ pub fn run(args: Args) -> Result<()> {
         .clone()
         .unwrap_or_else(|| target_dir.join("flight-vectors"));
 
+    let cfg = FlightConfig::default();
     let v = Vectors::synthetic(
         args.seed,
         args.width,
         args.height,
         args.map_size_m,
-        args.map_m_per_px,
+        cfg.grid.m_per_px,
     )?;
-    let host = v.host_run()?;
-    let expected = budget::host_results(&host);
-    v.write(&vectors_dir)?;
+    let host = v.host_run(&cfg)?;
+    v.write(&vectors_dir, &cfg)?;
     eprintln!(
         "budget: test vectors in {} ({})",
         vectors_dir.display(),
@@ -244,9 +273,45 @@ pub fn run(args: Args) -> Result<()> {
     );
 
     let env_file = toolchain_env(&repo, args.toolchain_env.clone())?;
-    let elf = build_firmware(&repo, &env_file, &vectors_dir, &target_dir)?;
+    let (elf, panic_free) = match build_firmware(&repo, &env_file, &vectors_dir, &target_dir, false)
+    {
+        Ok(elf) => (elf, true),
+        Err(BuildError::Other(e)) => return Err(e),
+        Err(BuildError::PanicPath) => {
+            eprintln!(
+                "budget: the firmware does NOT link: a panic path remains in the code it \
+                     runs (no-panic check, docs/flight-target.md); rebuilding with allow-panic \
+                     to find where"
+            );
+            match build_firmware(&repo, &env_file, &vectors_dir, &target_dir, true) {
+                Ok(elf) => (elf, false),
+                Err(BuildError::PanicPath) => {
+                    bail!("the allow-panic build still refers to the panic symbol")
+                }
+                Err(BuildError::Other(e)) => return Err(e),
+            }
+        }
+    };
     let elf_bytes = std::fs::read(&elf)
         .with_context(|| format!("cannot read the firmware {}", elf.display()))?;
+    let sites = if panic_free {
+        Vec::new()
+    } else {
+        budget::panic_sites(&elf_bytes)?
+    };
+    if !panic_free {
+        eprintln!("budget: panic paths (caller -> panic function (call sites)):");
+        for (a, b, n) in &sites {
+            eprintln!("  {a} -> {b} ({n})");
+        }
+        if !args.allow_panic {
+            bail!(
+                "the firmware is not panic free ({} call sites above); fix them, or pass \
+                 --allow-panic to measure anyway (the budget then records panic_free: false)",
+                sites.iter().map(|s| s.2).sum::<usize>()
+            );
+        }
+    }
     let sizes = budget::elf_sizes(&elf_bytes)?;
 
     let (code, text) = run_qemu(&elf, Duration::from_secs(args.qemu_timeout_s))?;
@@ -256,7 +321,12 @@ pub fn run(args: Args) -> Result<()> {
         clock_mhz: args.clock_mhz,
         cpi: args.cpi,
     };
-    let b = budget::assemble(&est, &report, &sizes, &expected, &v);
+    let mut b = budget::assemble(&est, &report, &sizes, &cfg, &host, &v, &sites);
+    if !panic_free && b.panic_sites.is_empty() {
+        // The link failed on the panic symbol but no call site was decoded: still not free.
+        b.panic_free = false;
+        b.panic_sites.push("(call sites not decoded)".to_string());
+    }
 
     let command = format!(
         "orbfix budget --target {} --clock-mhz {} --cpi {} --json {}",
