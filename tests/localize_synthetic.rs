@@ -128,7 +128,7 @@ fn subpixel_offset_is_recovered() {
     let map: Vec<u8> = (0..MW * MW)
         .map(|i| {
             let (x, y) = (i % MW, i / MW);
-            ((base[y * (MW + 1) + x] as u16 + base[y * (MW + 1) + x + 1] as u16 + 1) / 2) as u8
+            (base[y * (MW + 1) + x] as u16 + base[y * (MW + 1) + x + 1] as u16).div_ceil(2) as u8
         })
         .collect();
     let geo = GeoRef::new(0.0, 0.0, 1.0).unwrap();

@@ -159,6 +159,7 @@ pub fn outputs(out: &FlightOutputs) {
 }
 
 /// A short text for a flight error.
+#[cfg_attr(feature = "no-fix", allow(dead_code))]
 pub fn flight_error(e: &FlightError) -> &'static str {
     match e {
         FlightError::Reproject(_) => "reprojection failed (camera, grid, frame or buffer sizes)",

@@ -247,6 +247,22 @@ fn is_panic_symbol(name: &str) -> bool {
     .any(|k| name.contains(k))
 }
 
+/// Target of a 32-bit Thumb-2 `BL` (T1) or `B.W` (T4) at `addr` made of halfwords `h1`,
+/// `h2`, or `None` if they are not one.
+pub fn thumb_branch_target(addr: u64, h1: u16, h2: u16) -> Option<u64> {
+    let (h1, h2) = (h1 as u32, h2 as u32);
+    // BL: 11110 S imm10 | 11 J1 1 J2 imm11; B.W: 11110 S imm10 | 10 J1 1 J2 imm11.
+    if h1 >> 11 != 0b11110 || h2 >> 15 != 1 || (h2 >> 12) & 1 != 1 {
+        return None;
+    }
+    let s = (h1 >> 10) & 1;
+    let (j1, j2) = ((h2 >> 13) & 1, (h2 >> 11) & 1);
+    let (i1, i2) = (!(j1 ^ s) & 1, !(j2 ^ s) & 1);
+    let imm = (s << 24) | (i1 << 23) | (i2 << 22) | ((h1 & 0x3FF) << 12) | ((h2 & 0x7FF) << 1);
+    let off = ((imm << 7) as i32) >> 7; // sign-extend 25 bits
+    Some((addr as i64 + 4 + off as i64) as u64)
+}
+
 /// Call sites of panic entry points in a Thumb-2 ELF: `(caller, callee, calls)`, demangled,
 /// callers that are themselves panic functions left out. Found by decoding every 32-bit
 /// `BL` / `B.W` in executable sections and matching its target against panic symbols, so
@@ -292,20 +308,7 @@ pub fn panic_sites(data: &[u8]) -> Result<Vec<(String, String, usize)>> {
             let (Some(h1), Some(h2)) = (hw(i), hw(i + 2)) else {
                 break;
             };
-            // BL (T1): 11110 S imm10 | 11 J1 1 J2 imm11; B.W (T4): ... | 10 J1 1 J2 imm11.
-            if h1 >> 11 == 0b11110 && (h2 >> 14 == 0b11 || h2 >> 14 == 0b10) && (h2 >> 12) & 1 == 1
-            {
-                let s = (h1 >> 10) & 1;
-                let (j1, j2) = ((h2 >> 13) & 1, (h2 >> 11) & 1);
-                let (i1, i2) = (!(j1 ^ s) & 1, !(j2 ^ s) & 1);
-                let imm = (s << 24)
-                    | (i1 << 23)
-                    | (i2 << 22)
-                    | ((h1 & 0x3FF) << 12)
-                    | ((h2 & 0x7FF) << 1);
-                let off = ((imm << 7) as i32) >> 7; // sign-extend 25 bits
-                let pc = base + i as u64 + 4;
-                let target = (pc as i64 + off as i64) as u64;
+            if let Some(target) = thumb_branch_target(base + i as u64, h1 as u16, h2 as u16) {
                 if panics.contains(&target) {
                     let caller = name_at(base + i as u64)
                         .map(|f| f.2.clone())
@@ -634,6 +637,17 @@ impl Budget {
             kib(RAM_GOAL_BYTES)
         ));
         m.push_str(&format!(
+            "| external scratch (reprojection table, PSRAM) | {} | {}: does not fit the SRAM budget |\n",
+            thousands(self.external_scratch_bytes),
+            kib(self.external_scratch_bytes)
+        ));
+        m.push_str(&format!(
+            "| **all working memory** (SRAM + external scratch) | **{}** | **{}**: {} |\n",
+            thousands(self.working_total_bytes),
+            kib(self.working_total_bytes),
+            verdict(self.working_total_bytes, RAM_BUDGET_BYTES, RAM_GOAL_BYTES)
+        ));
+        m.push_str(&format!(
             "| flash (code + constants + .data image) | {} | {} |\n",
             thousands(self.flash_bytes),
             kib(self.flash_bytes)
@@ -644,15 +658,52 @@ impl Budget {
             kib(self.external_input_bytes)
         ));
         m.push_str(
-            "No heap: the firmware has no allocator. The link fails if static RAM does \
-                    not fit in memory.x's RAM region (budget minus the stack region).\n\n",
+            "No heap: the firmware has no allocator. The link fails if static RAM does not fit \
+             in memory.x's RAM region (budget minus the stack region). The reprojection table \
+             (8 bytes per grid cell plus overlap taps) is placed in external memory because it \
+             alone exceeds the SRAM budget; it is working memory all the same and is counted \
+             in the total.\n\n",
         );
+        m.push_str("## No panics\n\n");
+        if self.panic_free {
+            m.push_str(
+                "`panic_free: true`: the firmware links with a panic handler that calls an \
+                 undefined symbol, so no panic path remains in anything it runs.\n\n",
+            );
+        } else {
+            m.push_str(
+                "`panic_free: false`: the firmware does **not** link with the no-panic panic \
+                 handler; these numbers come from the `allow-panic` build (same code, a panic \
+                 handler that reports and exits). Panic call sites in the linked firmware \
+                 (caller -> panic function (sites)):\n\n",
+            );
+            for s in &self.panic_sites {
+                m.push_str(&format!("- `{s}`\n"));
+            }
+            m.push('\n');
+        }
+        m.push_str("## Fix of this run\n\n");
+        m.push_str(&format!(
+            "Fix at ({:.3}, {:.3}) m, {:.3} m from the true position (prior {:.3} m off), \
+             confidence {:.3}{}.\n\n",
+            self.fix.x_m,
+            self.fix.y_m,
+            self.fix.error_m,
+            self.fix.prior_error_m,
+            self.fix.confidence,
+            if self.fix.on_border {
+                ", peak ON THE BORDER (failure)"
+            } else {
+                ""
+            }
+        ));
         m.push_str("## Bit-exactness\n\n");
         if self.bit_exact {
             m.push_str(
-                "`bit_exact: true`: every result the firmware reported (camera hash, \
-                        frame and map statistics, digest) equals the host's run of the same \
-                        core code on the same inputs.\n",
+                "`bit_exact: true`: every result the firmware reported (table statistics, \
+                 top-down image and mask hashes, coarse response hash, candidates, fix and \
+                 scores as `f32` bit patterns, operation counts, digest) equals the host's run \
+                 of the same core code on the same inputs.\n",
             );
         } else {
             m.push_str(&format!(
