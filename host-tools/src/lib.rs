@@ -6,6 +6,9 @@
 //! (`docs/frames.md`).
 
 pub mod budget;
+pub mod dataset;
 pub mod eval;
+pub mod fsutil;
+pub mod render;
 pub mod reproject_ref;
 pub mod world;

@@ -14,6 +14,12 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Render a dataset (views, satellite crops, manifest); see docs/dataset.md.
+    Generate(cmd::generate::Args),
+    /// Render pictures: one location, a map region, or the docs figure.
+    Render(cmd::render::Args),
+    /// Measure speed beside the anchors (e.g. `orbfix bench world`).
+    Bench(cmd::bench::Args),
     /// Print the terrain elevation (metres) at a world point of the built-in world.
     Elevation {
         /// World seed.
@@ -33,6 +39,9 @@ enum Command {
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
+        Command::Generate(a) => cmd::generate::run(a)?,
+        Command::Render(a) => cmd::render::run(a)?,
+        Command::Bench(a) => cmd::bench::run(a)?,
         Command::Elevation { seed, x, y } => {
             let world = orbfix_host::world::World::new(seed);
             println!("{:.3}", world.height_m(x, y));

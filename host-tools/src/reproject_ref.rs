@@ -53,6 +53,87 @@ fn focal_f64(params: &CameraParams) -> f64 {
     0.5 * params.width_px as f64 / (0.5 * (params.hfov_deg as f64).to_radians()).tan()
 }
 
+/// The four posed cameras in `f64`, projecting ground offsets to pixels.
+struct Geometry {
+    cams: Vec<(Matrix3<f64>, Vector3<f64>)>,
+    ground: Vector3<f64>,
+    f: f64,
+    cx: f64,
+    cy: f64,
+    xmax: f64,
+    ymax: f64,
+}
+
+impl Geometry {
+    fn new(params: &CameraParams, pose: &RoverPose) -> Self {
+        let (w, h) = (params.width_px as usize, params.height_px as usize);
+        Self {
+            cams: View::ALL
+                .iter()
+                .map(|&v| camera_f64(params, pose, v))
+                .collect(),
+            ground: Vector3::new(pose.x_m as f64, pose.y_m as f64, pose.ground_z_m as f64),
+            f: focal_f64(params),
+            cx: 0.5 * w as f64,
+            cy: 0.5 * h as f64,
+            xmax: (w - 1) as f64,
+            ymax: (h - 1) as f64,
+        }
+    }
+
+    /// Up to two views that see the ground point `(dx, dy)` metres east / north of the
+    /// rover, best (farthest from its image edge) first: `(view, x, y, edge)` with `(x, y)`
+    /// in pixel-centre units (pixel `(i, j)` centre at `(i, j)`).
+    fn candidates(&self, dx: f64, dy: f64) -> Vec<(usize, f64, f64, f64)> {
+        let p = self.ground + Vector3::new(dx, dy, 0.0);
+        let mut cands: Vec<(usize, f64, f64, f64)> = Vec::with_capacity(4);
+        for (vi, (rot, c)) in self.cams.iter().enumerate() {
+            let q = rot * (p - c);
+            if q.z < 1e-3 {
+                continue;
+            }
+            let x = self.f * q.x / q.z + self.cx - 0.5;
+            let y = self.f * q.y / q.z + self.cy - 0.5;
+            if !(x >= 0.0 && x < self.xmax && y >= 0.0 && y < self.ymax) {
+                continue;
+            }
+            let e = x.min(self.xmax - x).min(y).min(self.ymax - y);
+            cands.push((vi, x, y, e));
+        }
+        cands.sort_by(|a, b| b.3.total_cmp(&a.3));
+        cands.truncate(2);
+        cands
+    }
+}
+
+/// Source maps of the best view per cell for an `n x n` grid, as OpenCV's `remap` wants
+/// them for the four frames stacked vertically (view `k` occupies rows `k h .. (k + 1) h`):
+/// `(map_x, map_y)` in pixel-centre units, `-10` where no view sees the cell. Used by the
+/// benchmark to run OpenCV on exactly the same output.
+pub fn stacked_source_maps(
+    params: &CameraParams,
+    pose: &RoverPose,
+    n: usize,
+    m_per_px: f64,
+) -> (Vec<f32>, Vec<f32>) {
+    let geom = Geometry::new(params, pose);
+    let h = params.height_px as f64;
+    let half = 0.5 * n as f64;
+    let mut mx = vec![-10f32; n * n];
+    let mut my = vec![-10f32; n * n];
+    for row in 0..n {
+        let dy = (half - row as f64 - 0.5) * m_per_px;
+        for col in 0..n {
+            let dx = (col as f64 + 0.5 - half) * m_per_px;
+            if let Some(&(vi, x, y, _)) = geom.candidates(dx, dy).first() {
+                mx[row * n + col] = x as f32;
+                my[row * n + col] = (y + vi as f64 * h) as f32;
+            }
+        }
+    }
+    (mx, my)
+}
+
 /// Output of the float reference: `n x n` north-up values (gray levels, unrounded) and
 /// validity.
 #[derive(Clone, Debug)]
@@ -111,13 +192,7 @@ pub fn reproject_f64(
             );
         }
     }
-    let f = focal_f64(params);
-    let (cx, cy) = (0.5 * w as f64, 0.5 * h as f64);
-    let cams: Vec<_> = View::ALL
-        .iter()
-        .map(|&v| camera_f64(params, pose, v))
-        .collect();
-    let (xmax, ymax) = ((w - 1) as f64, (h - 1) as f64);
+    let geom = Geometry::new(params, pose);
     let half = 0.5 * n as f64;
     let mut value = vec![0.0; n * n];
     let mut valid = vec![false; n * n];
@@ -128,28 +203,7 @@ pub fn reproject_f64(
             if (dx * dx + dy * dy).sqrt() > max_range_m {
                 continue;
             }
-            let p = Vector3::new(
-                pose.x_m as f64 + dx,
-                pose.y_m as f64 + dy,
-                pose.ground_z_m as f64,
-            );
-            // (view, x, y, edge distance) of every view that sees the point.
-            let mut cands: Vec<(usize, f64, f64, f64)> = Vec::with_capacity(4);
-            for (vi, (rot, c)) in cams.iter().enumerate() {
-                let q = rot * (p - c);
-                if q.z < 1e-3 {
-                    continue;
-                }
-                let x = f * q.x / q.z + cx - 0.5;
-                let y = f * q.y / q.z + cy - 0.5;
-                if !(x >= 0.0 && x < xmax && y >= 0.0 && y < ymax) {
-                    continue;
-                }
-                let e = x.min(xmax - x).min(y).min(ymax - y);
-                cands.push((vi, x, y, e));
-            }
-            cands.sort_by(|a, b| b.3.total_cmp(&a.3));
-            cands.truncate(2);
+            let cands = geom.candidates(dx, dy);
             let used: Vec<_> = cands
                 .iter()
                 .filter_map(|&(vi, x, y, e)| frames[vi].map(|img| (bilinear(img, x, y), e)))

@@ -1,7 +1,7 @@
 //! Applying the lookup table: integer-only bilinear sampling (per frame set).
 
 use super::{
-    Buffer, Lut, ReprojectError, Tap, BILINEAR_Q10, NODATA, OFF_MASK, VIEW_SHIFT, WI_MASK,
+    Buffer, Lut, ReprojectError, Tap, BILINEAR_Q10, FRAC_BITS, NODATA, OFF_MASK, VIEW_SHIFT,
 };
 use crate::image::ImageView;
 
@@ -9,8 +9,8 @@ use crate::image::ImageView;
 pub const BLACK_LEVEL: u8 = 10;
 /// Gray level at or above which a sample counts as saturated.
 pub const SATURATED_LEVEL: u8 = 250;
-/// Samples per side of the grid [`classify_frame`] reads (at most 64 x 64 = 4096 pixels).
-const PROBE: usize = 64;
+/// Samples per side of the grid [`classify_frame`] reads (at most 32 x 32 = 1024 pixels).
+const PROBE: usize = 32;
 /// Percentage of black (or saturated) samples that makes a frame unusable.
 const UNUSABLE_PERCENT: usize = 99;
 
@@ -22,9 +22,9 @@ pub enum FrameStatus {
     Ok,
     /// The caller passed `None`: not sampled.
     Missing,
-    /// At least 99 % of a 64 x 64 sampling grid is at or below [`BLACK_LEVEL`]: not sampled.
+    /// At least 99 % of a 32 x 32 sampling grid is at or below [`BLACK_LEVEL`]: not sampled.
     Black,
-    /// At least 99 % of a 64 x 64 sampling grid is at or above [`SATURATED_LEVEL`]: not
+    /// At least 99 % of a 32 x 32 sampling grid is at or above [`SATURATED_LEVEL`]: not
     /// sampled.
     Saturated,
 }
@@ -50,18 +50,21 @@ impl ApplyReport {
 }
 
 /// Classifies a frame as usable, black or saturated from a sparse grid of at most
-/// 64 x 64 samples (pixel centres of an even grid), so that a frame in slow external
+/// 32 x 32 samples (pixel centres of an even grid), so that a frame in slow external
 /// memory is never read whole.
 pub fn classify_frame(frame: &ImageView<'_>) -> FrameStatus {
     let (w, h) = (frame.width(), frame.height());
     let nx = w.min(PROBE);
     let ny = h.min(PROBE);
+    let mut cols = [0usize; PROBE];
+    for (i, c) in cols.iter_mut().enumerate().take(nx) {
+        *c = (2 * i + 1) * w / (2 * nx);
+    }
     let (mut dark, mut bright, mut total) = (0usize, 0usize, 0usize);
     for j in 0..ny {
         let y = (2 * j + 1) * h / (2 * ny);
         let Some(row) = frame.row(y) else { continue };
-        for i in 0..nx {
-            let x = (2 * i + 1) * w / (2 * nx);
+        for &x in cols.iter().take(nx) {
             if let Some(&p) = row.get(x) {
                 total += 1;
                 dark += usize::from(p <= BLACK_LEVEL);
@@ -81,26 +84,42 @@ pub fn classify_frame(frame: &ImageView<'_>) -> FrameStatus {
     }
 }
 
-/// Q10 bilinear sum of the four taps at `off` (no view bits) with weight index `wi`.
+/// Q10 bilinear sum of the four taps at `off` (no view bits) of the frame starting at
+/// `base`, with weight index `wi` (`fy << 5 | fx`, bits 10..=15 clear): the dot product of
+/// the four pixels with the weights of [`BILINEAR_Q10_U32`].
 ///
-/// Safety: `off + stride + 1 < frame.len()`.
+/// Safety: `base + off + stride + 1` lies inside one frame buffer.
 #[inline(always)]
-unsafe fn tap_q10(frame: &[u8], off: usize, stride: usize, wi: u16) -> u32 {
-    let w = &BILINEAR_Q10[(wi & WI_MASK) as usize];
-    // Safety: the caller guarantees `off + stride + 1 < frame.len()`; the other three
-    // indices are smaller.
+unsafe fn tap_q10(base: *const u8, off: usize, stride: usize, wi: u16) -> u32 {
+    let w = &BILINEAR_Q10_U32[usize::from(wi) & (WEIGHTS - 1)];
+    // Safety: the caller guarantees `off + stride + 1` is inside the frame; the other
+    // three offsets are smaller.
     let (p00, p01, p10, p11) = unsafe {
+        let p = base.add(off);
         (
-            *frame.get_unchecked(off),
-            *frame.get_unchecked(off + 1),
-            *frame.get_unchecked(off + stride),
-            *frame.get_unchecked(off + stride + 1),
+            u32::from(*p),
+            u32::from(*p.add(1)),
+            u32::from(*p.add(stride)),
+            u32::from(*p.add(stride + 1)),
         )
     };
-    u32::from(p00) * u32::from(w[0])
-        + u32::from(p01) * u32::from(w[1])
-        + u32::from(p10) * u32::from(w[2])
-        + u32::from(p11) * u32::from(w[3])
+    p00 * w[0] + p01 * w[1] + p10 * w[2] + p11 * w[3]
+}
+
+const WEIGHTS: usize = 1 << (2 * FRAC_BITS);
+
+/// [`BILINEAR_Q10`] widened to `u32` (16 KiB) so the inner loop needs no conversions.
+static BILINEAR_Q10_U32: [[u32; 4]; WEIGHTS] = widen();
+
+const fn widen() -> [[u32; 4]; WEIGHTS] {
+    let mut t = [[0u32; 4]; WEIGHTS];
+    let mut i = 0;
+    while i < WEIGHTS {
+        let w = BILINEAR_Q10[i];
+        t[i] = [w[0] as u32, w[1] as u32, w[2] as u32, w[3] as u32];
+        i += 1;
+    }
+    t
 }
 
 const ROUND10: u32 = 1 << 9;
@@ -128,7 +147,7 @@ impl Lut<'_> {
             }
         }
         let mut status = [FrameStatus::Missing; 4];
-        let mut data: [&[u8]; 4] = [&[]; 4];
+        let mut data: [*const u8; 4] = [core::ptr::null(); 4];
         for (view, (f, (st, d))) in frames
             .iter()
             .zip(status.iter_mut().zip(data.iter_mut()))
@@ -153,7 +172,7 @@ impl Lut<'_> {
             if *st == FrameStatus::Ok {
                 // ImageView guarantees len >= stride * (height - 1) + width, which with the
                 // table invariant keeps every tap inside the frame.
-                *d = f.data();
+                *d = f.data().as_ptr();
             }
         }
         let ok = status.map(|s| s == FrameStatus::Ok);
@@ -169,12 +188,38 @@ impl Lut<'_> {
         })
     }
 
-    /// Every frame present: the tight loop.
-    fn apply_all(&self, data: &[&[u8]; 4], out: &mut [u8], mask: &mut [u8]) -> (usize, usize) {
+    /// Every frame present: runs of single-tap cells in one view go through a tight
+    /// loop with one frame pointer; other cells (no data, blended) one by one.
+    fn apply_all(&self, data: &[*const u8; 4], out: &mut [u8], mask: &mut [u8]) -> (usize, usize) {
         let stride = self.stride;
         let mut extra = self.extra.iter();
-        let mut valid = 0usize;
-        for ((c, o), m) in self.cells.iter().zip(out.iter_mut()).zip(mask.iter_mut()) {
+        let mut i = 0usize;
+        while let Some(c) = self.cells.get(i) {
+            let run = usize::from(c.run);
+            if run > 0 {
+                let base = data[(c.off >> VIEW_SHIFT) as usize];
+                let end = i + run;
+                if let (Some(cs), Some(os), Some(ms)) = (
+                    self.cells.get(i..end),
+                    out.get_mut(i..end),
+                    mask.get_mut(i..end),
+                ) {
+                    for ((c, o), m) in cs.iter().zip(os.iter_mut()).zip(ms.iter_mut()) {
+                        // Safety: the table invariant (Lut::build) with the size and stride
+                        // checked in `apply` keeps `off + stride + 1` inside the frame; all
+                        // cells of a run are in the view of `base`.
+                        let a = unsafe { tap_q10(base, (c.off & OFF_MASK) as usize, stride, c.wi) };
+                        *o = ((a + ROUND10) >> 10) as u8;
+                        *m = 255;
+                    }
+                    i = end;
+                    continue;
+                }
+            }
+            let (Some(o), Some(m)) = (out.get_mut(i), mask.get_mut(i)) else {
+                break;
+            };
+            i += 1;
             if c.wi & NODATA != 0 {
                 *o = 0;
                 *m = 0;
@@ -201,15 +246,14 @@ impl Lut<'_> {
             };
             *o = v.min(255) as u8;
             *m = 255;
-            valid += 1;
         }
-        (valid, 0)
+        (self.stats.valid_cells, 0)
     }
 
     /// Some frames not sampled: cells fall back to the other tap or become "no data".
     fn apply_some(
         &self,
-        data: &[&[u8]; 4],
+        data: &[*const u8; 4],
         ok: &[bool; 4],
         out: &mut [u8],
         mask: &mut [u8],
@@ -252,5 +296,29 @@ impl Lut<'_> {
             valid += 1;
         }
         (valid, lost)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tap_equals_weight_table() {
+        let stride = 5;
+        let frame: [u8; 10] = [0, 255, 17, 3, 99, 255, 254, 1, 128, 77];
+        for off in 0..3 {
+            for wi in 0..1024u16 {
+                let w = BILINEAR_Q10[wi as usize];
+                let p = |k: usize| u32::from(frame[k]);
+                let want = p(off) * u32::from(w[0])
+                    + p(off + 1) * u32::from(w[1])
+                    + p(off + stride) * u32::from(w[2])
+                    + p(off + stride + 1) * u32::from(w[3]);
+                // Safety: off + stride + 1 <= 8 < 10.
+                let got = unsafe { tap_q10(frame.as_ptr(), off, stride, wi) };
+                assert_eq!(got, want, "off {off} wi {wi}");
+            }
+        }
     }
 }

@@ -229,13 +229,26 @@ impl<'a> Lut<'a> {
                     off,
                     wi: wi & !NODATA,
                     w2,
-                    _pad: 0,
+                    run: 0,
                 };
                 stats.valid_cells += 1;
                 if let Some(c) = stats.cells_per_view.get_mut(b1.view as usize) {
                     *c += 1;
                 }
             }
+        }
+        // Runs of single-tap cells in one view, counted backwards.
+        let mut next: Option<Cell> = None;
+        for c in cells.iter_mut().rev() {
+            c.run = if c.is_valid() && c.w2 == 0 {
+                match next {
+                    Some(nx) if nx.run > 0 && nx.view() == c.view() => nx.run.saturating_add(1),
+                    _ => 1,
+                }
+            } else {
+                0
+            };
+            next = Some(*c);
         }
         let extra: &'a [Tap] = extra;
         Ok(Self {

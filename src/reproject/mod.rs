@@ -72,13 +72,15 @@ pub const fn extra_bytes(taps: usize) -> usize {
 const VIEW_SHIFT: u32 = 30;
 const OFF_MASK: u32 = (1 << VIEW_SHIFT) - 1;
 const NODATA: u16 = 1 << 15;
-const WI_MASK: u16 = (1 << WEIGHT_BITS) - 1;
 
 /// One grid cell of the primary table (8 bytes).
 ///
 /// Layout: `off` = source offset `y0 * stride + x0` of the top-left bilinear tap (bits
 /// 0..=29) and the view index (bits 30..=31); `wi` = weight index `fy << 5 | fx` (bits
-/// 0..=9), bit 15 set for "no data"; `w2` = Q8 weight of the secondary tap (0: none).
+/// 0..=9), bit 15 set for "no data"; `w2` = Q8 weight of the secondary tap (0: none);
+/// `run` = how many cells from this one on (itself included, at most 255) are valid,
+/// single-tap and in the same view, so that [`Lut::apply`] can sample them with one frame
+/// pointer (0 for no-data and blended cells).
 /// Only [`Lut::build`] writes cells, which keeps every offset inside its frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(C)]
@@ -86,7 +88,7 @@ pub struct Cell {
     off: u32,
     wi: u16,
     w2: u8,
-    _pad: u8,
+    run: u8,
 }
 
 impl Cell {
@@ -95,7 +97,7 @@ impl Cell {
         off: 0,
         wi: NODATA,
         w2: 0,
-        _pad: 0,
+        run: 0,
     };
 
     /// Whether the cell has data.
