@@ -57,7 +57,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let mut best: Option<orbfix_host::eval::Localization> = None;
         for _ in 0..a.reps {
             let loc = localize_top_down(&spec, &top, &map, (q.prior_x_m, q.prior_y_m), &cfg, 50)?;
-            if best.as_ref().is_none_or(|b| loc.dense_s + loc.windows_s < b.dense_s + b.windows_s) {
+            if best
+                .as_ref()
+                .is_none_or(|b| loc.dense_s + loc.windows_s < b.dense_s + b.windows_s)
+            {
                 best = Some(loc);
             }
         }
@@ -76,8 +79,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 ops.windows,
                 ops.macs,
                 ops.downsample_px,
-                if t.is_nan() { "-".into() } else { format!("{:.2}", t * 1e3) },
-                if t.is_nan() { "-".into() } else { format!("{:.2}", ops.macs as f64 / t / 1e9) },
+                if t.is_nan() {
+                    "-".into()
+                } else {
+                    format!("{:.2}", t * 1e3)
+                },
+                if t.is_nan() {
+                    "-".into()
+                } else {
+                    format!("{:.2}", ops.macs as f64 / t / 1e9)
+                },
                 ops.macs as f64 / FLIGHT_BUDGET_INSTR
             );
         }

@@ -50,7 +50,10 @@ struct Row {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     anyhow::ensure!((1..=100).contains(&a.stops), "--stops must be 1..=100");
-    let name = a.matcher.clone().unwrap_or_else(|| best_matcher().to_string());
+    let name = a
+        .matcher
+        .clone()
+        .unwrap_or_else(|| best_matcher().to_string());
     let spec = matcher_by_name(&name)
         .with_context(|| format!("--matcher (available: {})", MATCHERS.join(", ")))?;
     std::fs::create_dir_all(&a.out)
@@ -76,21 +79,48 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let loc = localize_top_down(&spec, &top, &map, (q.prior_x_m, q.prior_y_m), &cfg, 50)
             .with_context(|| format!("stop {}", q.id))?;
         let localize_s = t1.elapsed().as_secs_f64();
-        let tw = nearest_window(&loc.window_grid, &map.geo, top.n, top.n, q.x_m as f32, q.y_m as f32);
+        let tw = nearest_window(
+            &loc.window_grid,
+            &map.geo,
+            top.n,
+            top.n,
+            q.x_m as f32,
+            q.y_m as f32,
+        );
         let rank = rank_of(&loc.window_scores, tw).unwrap_or(usize::MAX);
         let fix = (loc.fix.x_m as f64, loc.fix.y_m as f64);
         let err = ((fix.0 - q.x_m).powi(2) + (fix.1 - q.y_m).powi(2)).sqrt();
         println!(
             "{:>4}  {:>9.2},{:>9.2}  {:>9.2},{:>9.2}  {:>8.2}  {:>5.2}  {:>4}  {:>8.2}  {:>8.3}{}",
-            q.id, q.x_m, q.y_m, fix.0, fix.1, err, loc.fix.confidence, rank + 1, render_s, localize_s,
-            if loc.fix.on_border { "  (border: rejected)" } else { "" }
+            q.id,
+            q.x_m,
+            q.y_m,
+            fix.0,
+            fix.1,
+            err,
+            loc.fix.confidence,
+            rank + 1,
+            render_s,
+            localize_s,
+            if loc.fix.on_border {
+                "  (border: rejected)"
+            } else {
+                ""
+            }
         );
         save_png_atomic(
             &overlay::top_down_picture(&top),
             &a.out.join(format!("stop_{:02}_topdown.png", q.id)),
         )?;
         save_png_atomic(
-            &overlay::map_picture(&map, &loc, top.n, Some((q.x_m, q.y_m)), (q.prior_x_m, q.prior_y_m), 2),
+            &overlay::map_picture(
+                &map,
+                &loc,
+                top.n,
+                Some((q.x_m, q.y_m)),
+                (q.prior_x_m, q.prior_y_m),
+                2,
+            ),
             &a.out.join(format!("stop_{:02}_map.png", q.id)),
         )?;
         rows.push(Row {
@@ -109,7 +139,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let json = serde_json::json!({
         "seed": a.seed, "matcher": name, "condition": a.condition.name(), "stops": rows,
     });
-    write_atomic(&a.out.join("demo.json"), serde_json::to_string_pretty(&json)?.as_bytes())?;
+    write_atomic(
+        &a.out.join("demo.json"),
+        serde_json::to_string_pretty(&json)?.as_bytes(),
+    )?;
     println!(
         "rank = position of the true 50 m window among the study's 441; pictures: {} (map: heat = response, green x = truth, red ring = fix, orange = other candidates, blue + = prior, yellow = 5 best windows)",
         a.out.display()

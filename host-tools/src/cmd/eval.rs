@@ -5,12 +5,16 @@ use anyhow::Context;
 use orbfix::localize::LocalizeConfig;
 use orbfix_host::eval::pipeline::{Condition, PipelineOptions};
 use orbfix_host::eval::run::{run_eval, EvalConfig, EvalOutput};
-use orbfix_host::eval::{figures, overlay, parse_matchers, save_png_atomic, write_atomic, MATCHERS};
+use orbfix_host::eval::{
+    figures, overlay, parse_matchers, save_png_atomic, write_atomic, MATCHERS,
+};
 use std::path::{Path, PathBuf};
 
 /// Evaluate matchers on generated rover stops of the test zone (no dataset needed).
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example: orbfix eval --seed 1 --queries 30 --matcher ncc,l1,l2 --json out/eval.json --figures out/fig")]
+#[command(
+    after_help = "Example: orbfix eval --seed 1 --queries 30 --matcher ncc,l1,l2 --json out/eval.json --figures out/fig"
+)]
 pub struct Args {
     /// World seed (also seeds the queries).
     #[arg(long, default_value_t = 1)]
@@ -82,7 +86,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 pub fn print_table(out: &EvalOutput) {
     println!(
         "{:<9} {:<9} {:>4} {:>6} {:>6} {:>7} {:>9} {:>8} {:>6} {:>6} {:>7}",
-        "matcher", "condition", "n", "R@1", "R@5", "R@10", "median m", "p95 m", "AUC", "err", "border"
+        "matcher",
+        "condition",
+        "n",
+        "R@1",
+        "R@5",
+        "R@10",
+        "median m",
+        "p95 m",
+        "AUC",
+        "err",
+        "border"
     );
     for r in &out.reports {
         println!(
@@ -122,7 +136,11 @@ pub fn write_figures(out: &EvalOutput, dir: &Path) -> anyhow::Result<()> {
             r.per_query.iter().map(|q| q.error_m).collect(),
         ));
     }
-    let cond = out.reports.first().map(|r| r.condition.as_str()).unwrap_or("eval");
+    let cond = out
+        .reports
+        .first()
+        .map(|r| r.condition.as_str())
+        .unwrap_or("eval");
     figures::roc_curves(&dir.join(format!("roc_{cond}.svg")), &rocs)?;
     figures::error_cdfs(&dir.join(format!("error_cdf_{cond}.svg")), &cdfs)?;
     for ex in &out.examples {

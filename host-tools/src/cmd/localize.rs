@@ -4,14 +4,16 @@
 use anyhow::{bail, Context};
 use orbfix::localize::{nearest_window, rank_of, LocalizeConfig};
 use orbfix_host::eval::{
-    describe_fix, load_map, localize_top_down, matcher_by_name, overlay, save_png_atomic,
+    describe_fix, load_map, localize_top_down, matcher_by_name, overlay, pipeline, save_png_atomic,
     write_atomic, TopDown, MATCHERS,
 };
 use std::path::PathBuf;
 
 /// Localize one rover stop in an orbital map.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Examples:\n  orbfix localize --dataset data/ds --id 000012 --map out/map.png --map-meta out/map.json --out out/loc\n  orbfix localize --top top.png --mask mask.png --map out/map.png --map-meta out/map.json --prior-x 3000 --prior-y 2000 --out out/loc")]
+#[command(
+    after_help = "Examples:\n  orbfix localize --dataset data/ds --id 000012 --map out/map.png --map-meta out/map.json --out out/loc\n  orbfix localize --top top.png --mask mask.png --map out/map.png --map-meta out/map.json --prior-x 3000 --prior-y 2000 --out out/loc"
+)]
 pub struct Args {
     /// Dataset folder (`orbfix generate`); with --id.
     #[arg(long, requires = "id")]
@@ -55,7 +57,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let (top, truth) = match (&a.dataset, &a.top) {
         (Some(ds), _) => {
             let id = a.id.as_deref().context("--dataset needs --id")?;
-            orbfix_host::eval::dataset_top_down(ds, id)?
+            pipeline::dataset_top_down(ds, id)?
         }
         (None, Some(t)) => (load_top(t, a.mask.as_ref(), a.top_m_per_px)?, None),
         (None, None) => bail!("give a rover stop: --dataset DIR --id ID, or --top TOP.png"),
@@ -75,10 +77,18 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     json["prior_m"] = serde_json::json!([prior.0, prior.1]);
     if let Some((tx, ty)) = truth {
         let err = ((loc.fix.x_m as f64 - tx).powi(2) + (loc.fix.y_m as f64 - ty).powi(2)).sqrt();
-        let tw = nearest_window(&loc.window_grid, &map.geo, top.n, top.n, tx as f32, ty as f32);
+        let tw = nearest_window(
+            &loc.window_grid,
+            &map.geo,
+            top.n,
+            top.n,
+            tx as f32,
+            ty as f32,
+        );
         json["truth_m"] = serde_json::json!([tx, ty]);
         json["error_m"] = err.into();
-        json["true_window_rank"] = (rank_of(&loc.window_scores, tw).unwrap_or(usize::MAX) + 1).into();
+        json["true_window_rank"] =
+            (rank_of(&loc.window_scores, tw).unwrap_or(usize::MAX) + 1).into();
     }
     write_atomic(
         &a.out.join("result.json"),
@@ -94,7 +104,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         loc.fix.x_m,
         loc.fix.y_m,
         loc.fix.confidence,
-        if loc.fix.on_border { ", ON THE SEARCH BORDER (rejected)" } else { "" },
+        if loc.fix.on_border {
+            ", ON THE SEARCH BORDER (rejected)"
+        } else {
+            ""
+        },
         a.out.display()
     );
     Ok(())
@@ -105,7 +119,12 @@ fn load_top(path: &PathBuf, mask: Option<&PathBuf>, m_per_px: f32) -> anyhow::Re
         .with_context(|| format!("cannot read the top-down image {}", path.display()))?
         .to_luma8();
     if img.width() != img.height() {
-        bail!("{} is {} x {} px: the top-down image must be square", path.display(), img.width(), img.height());
+        bail!(
+            "{} is {} x {} px: the top-down image must be square",
+            path.display(),
+            img.width(),
+            img.height()
+        );
     }
     let n = img.width() as usize;
     let mask = match mask {
@@ -114,7 +133,12 @@ fn load_top(path: &PathBuf, mask: Option<&PathBuf>, m_per_px: f32) -> anyhow::Re
                 .with_context(|| format!("cannot read the mask {}", p.display()))?
                 .to_luma8();
             if m.dimensions() != img.dimensions() {
-                bail!("mask {} is {:?} px, the image {:?}", p.display(), m.dimensions(), img.dimensions());
+                bail!(
+                    "mask {} is {:?} px, the image {:?}",
+                    p.display(),
+                    m.dimensions(),
+                    img.dimensions()
+                );
             }
             m.into_raw()
         }
@@ -123,5 +147,10 @@ fn load_top(path: &PathBuf, mask: Option<&PathBuf>, m_per_px: f32) -> anyhow::Re
     if !(m_per_px.is_finite() && m_per_px > 0.0) {
         bail!("--top-m-per-px must be a positive number of metres");
     }
-    Ok(TopDown { image: img.into_raw(), mask, n, m_per_px })
+    Ok(TopDown {
+        image: img.into_raw(),
+        mask,
+        n,
+        m_per_px,
+    })
 }

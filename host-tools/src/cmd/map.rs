@@ -10,7 +10,9 @@ use std::path::PathBuf;
 
 /// Write a north-up map region centred on (x, y) with its georeference sidecar.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example: orbfix map --x 3000 --y 2000 --out out/map.png  (writes out/map.png and out/map.json)")]
+#[command(
+    after_help = "Example: orbfix map --x 3000 --y 2000 --out out/map.png  (writes out/map.png and out/map.json)"
+)]
 pub struct Args {
     /// World seed.
     #[arg(long, default_value_t = 1)]
@@ -55,7 +57,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let sun = Sun::new(a.sun_elevation, a.sun_azimuth)
         .map_err(|e| anyhow::anyhow!("{e} (elevation 0-90 deg, azimuth 0-360 deg)"))?;
     let world = World::new(a.seed);
-    let map = map_region(&world, a.x, a.y, px, a.m_per_px, sun, &RenderOptions::default())?;
+    let map = map_region(
+        &world,
+        a.x,
+        a.y,
+        px,
+        a.m_per_px,
+        sun,
+        &RenderOptions::default(),
+    )?;
     let img = image::GrayImage::from_raw(map.width as u32, map.height as u32, map.image.clone())
         .context("map buffer has the wrong size")?;
     save_png_atomic(&img, &a.out)?;

@@ -10,7 +10,8 @@
 pub mod figures;
 pub mod metrics;
 pub mod overlay;
-// pub mod pipeline;
+pub mod pipeline;
+pub mod run;
 
 use anyhow::{bail, Context};
 use orbfix::geo::GeoRef;

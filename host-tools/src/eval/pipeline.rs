@@ -209,3 +209,33 @@ pub fn render_query(
     )?;
     Ok((top, map))
 }
+
+/// The top-down image of a dataset location (its views reprojected with the core LUT at the
+/// default 200 x 200 grid, 0.25 m/px) and its true position `(x, y)` metres.
+pub fn dataset_top_down(
+    dir: &std::path::Path,
+    id: &str,
+) -> anyhow::Result<(TopDown, Option<(f64, f64)>)> {
+    let ds = crate::dataset::Dataset::open(dir)?;
+    let row = ds
+        .rows
+        .iter()
+        .find(|r| r.id == id || r.index.to_string() == id)
+        .with_context(|| {
+            format!(
+                "location '{id}' is not in {} ({} locations, ids like '{}')",
+                dir.display(),
+                ds.rows.len(),
+                ds.rows.first().map(|r| r.id.as_str()).unwrap_or("?")
+            )
+        })?;
+    let views = ds.load_views(row)?;
+    let pose = orbfix::camera::RoverPose::level(
+        row.x_m as f32,
+        row.y_m as f32,
+        row.ground_z_m as f32,
+        row.yaw_deg as f32,
+    );
+    let top = reproject_views(&views, &ds.info.config.render, &pose, &GridSpec::default())?;
+    Ok((top, Some((row.x_m, row.y_m))))
+}

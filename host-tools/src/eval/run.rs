@@ -67,6 +67,8 @@ pub struct QueryResult {
     pub dense_s: f64,
     /// Seconds of the window search.
     pub windows_s: f64,
+    /// Per-pixel accumulates (MACs) of the coarse pass, the fine pass and the window search.
+    pub macs: [u64; 3],
 }
 
 /// The report of one matcher under one condition.
@@ -102,8 +104,8 @@ pub struct EvalReport {
     pub mean_dense_s: f64,
     /// Mean seconds of one window search.
     pub mean_windows_s: f64,
-    /// Operation counts of the last query: coarse, fine, windows.
-    pub ops: BTreeMap<String, OpCounts>,
+    /// Mean per-pixel accumulates per query: coarse, fine, windows.
+    pub ops: BTreeMap<String, f64>,
     /// Settings.
     pub settings: serde_json::Value,
     /// Every query.
@@ -165,8 +167,12 @@ fn run_query(
     // Pair windows: the truth's window and a random one at least 50 m away.
     let (tc, tr) = map.geo.to_pixel(q.x_m as f32, q.y_m as f32);
     let half = n as f64 / 2.0;
-    let tcol = (tc as f64 - half).round().clamp(0.0, (map.width - n) as f64) as usize;
-    let trow = (tr as f64 - half).round().clamp(0.0, (map.height - n) as f64) as usize;
+    let tcol = (tc as f64 - half)
+        .round()
+        .clamp(0.0, (map.width - n) as f64) as usize;
+    let trow = (tr as f64 - half)
+        .round()
+        .clamp(0.0, (map.height - n) as f64) as usize;
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed.wrapping_mul(1000).wrapping_add(q.id as u64));
     let away = 50.0 / map.geo.m_per_px as f64;
     let (ncol, nrow) = loop {
@@ -207,6 +213,11 @@ fn run_query(
             coverage,
             dense_s: loc.dense_s,
             windows_s: loc.windows_s,
+            macs: [
+                loc.fix.ops_coarse.macs,
+                loc.fix.ops_fine.macs,
+                loc.window_ops.macs,
+            ],
         });
         locs.push(loc);
     }
@@ -296,10 +307,9 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
         };
         let share = |d: f64| errs.iter().filter(|&&e| e <= d).count() as f64 / errs.len() as f64;
         let mut ops = BTreeMap::new();
-        if let Some(ex) = examples.first().and_then(|e| e.locs.get(k)) {
-            ops.insert("coarse".to_string(), ex.fix.ops_coarse);
-            ops.insert("fine".to_string(), ex.fix.ops_fine);
-            ops.insert("windows".to_string(), ex.window_ops);
+        for (i, stage) in ["coarse", "fine", "windows"].iter().enumerate() {
+            let m: Vec<f64> = rs.iter().map(|r| r.macs[i] as f64).collect();
+            ops.insert(format!("{stage}_macs_mean"), mean(m));
         }
         reports.push(EvalReport {
             matcher: name.clone(),
@@ -320,10 +330,16 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
             pairs: pair_stats(&pos, &neg),
             border_rejections: rs.iter().filter(|r| r.on_border).count(),
             mean_confidence_correct: mean(
-                rs.iter().filter(|r| r.error_m <= 5.0).map(|r| r.confidence).collect(),
+                rs.iter()
+                    .filter(|r| r.error_m <= 5.0)
+                    .map(|r| r.confidence)
+                    .collect(),
             ),
             mean_confidence_wrong: mean(
-                rs.iter().filter(|r| r.error_m > 5.0).map(|r| r.confidence).collect(),
+                rs.iter()
+                    .filter(|r| r.error_m > 5.0)
+                    .map(|r| r.confidence)
+                    .collect(),
             ),
             mean_dense_s: mean(rs.iter().map(|r| r.dense_s).collect()),
             mean_windows_s: mean(rs.iter().map(|r| r.windows_s).collect()),
