@@ -329,11 +329,16 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     let command = format!(
-        "orbfix budget --target {} --clock-mhz {} --cpi {} --json {}",
+        "orbfix budget --target {} --clock-mhz {} --cpi {} --json {}{}",
         est.target,
         args.clock_mhz,
         args.cpi,
-        args.json.display()
+        args.json.display(),
+        if args.allow_panic {
+            " --allow-panic"
+        } else {
+            ""
+        }
     );
     let md = args
         .md
