@@ -48,8 +48,8 @@ impl StageTicks {
     pub fn now(&self) -> u64 {
         loop {
             let w1 = WRAPS.load(Ordering::Relaxed);
-            // Safety: reading the SysTick current-value register has no side effect
-            // other than clearing nothing (COUNTFLAG lives in CSR).
+            // Safety: SYST_CVR is the SysTick current-value register (always mapped on
+            // ARMv7-M); reading it has no side effect (COUNTFLAG lives in CSR).
             let cur = unsafe { read_volatile(SYST_CVR) } & RELOAD;
             let w2 = WRAPS.load(Ordering::Relaxed);
             if w1 == w2 {

@@ -180,6 +180,8 @@ fn SysTick() {
     clock::on_wrap();
 }
 
+// Safety: cortex-m-rt requires the HardFault handler to be `unsafe fn`; it only reports
+// over semihosting and exits, touching no shared state.
 #[exception]
 unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
     Line::new().str("END ERR hard fault").send();
