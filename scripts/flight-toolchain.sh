@@ -55,7 +55,7 @@ elif [ "$(id -u)" = 0 ]; then
       qemu-system-arm >&2 || die "could not install qemu-system-arm with apt-get; install it by hand and run this again"
   fi
 else
-  die "qemu-system-arm is missing and this is not root: run 'sudo apt-get install qemu-system-arm' and run this again"
+  die "qemu-system-arm is missing and this is not root: run 'sudo apt-get install qemu-system-arm' and run this again (or skip the flight step of scripts/test.sh with ORBFIX_SKIP_FLIGHT=1)"
 fi
 
 # ---------------------------------------------------------------- host rust-lld
