@@ -320,8 +320,10 @@ mod tests {
 
     #[test]
     fn rejects_bad_parameters() {
-        let mut p = CameraParams::default();
-        p.hfov_deg = 180.0;
+        let mut p = CameraParams {
+            hfov_deg: 180.0,
+            ..Default::default()
+        };
         assert_eq!(p.validate(), Err(CameraError::FovOutOfRange));
         p = CameraParams::default();
         p.tilt_deg = f32::NAN;

@@ -13,12 +13,17 @@
 //! Modules, one concept each:
 //! - [`image`]: borrowed 8-bit grayscale image views;
 //! - [`geo`]: georeference of north-up rasters;
-//! - [`camera`]: pinhole camera model of the rover's four views.
+//! - [`camera`]: pinhole camera model of the rover's four views;
+//! - [`nn`]: quantized siamese CNN matcher (int8 kernels, weight file, shipped network).
 #![no_std]
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
 
 pub mod camera;
 pub mod geo;
 pub mod image;
+pub mod nn;

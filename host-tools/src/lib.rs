@@ -5,4 +5,5 @@
 //! budget. Uses the `orbfix` core as a library; frames and units are those of the core
 //! (`docs/frames.md`).
 
+pub mod nn;
 pub mod world;

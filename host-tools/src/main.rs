@@ -2,6 +2,8 @@
 
 use clap::{Parser, Subcommand};
 
+mod cmd;
+
 /// orbfix: absolute rover localization from ground views and an orbital map.
 #[derive(Parser, Debug)]
 #[command(name = "orbfix", version, about, long_about = None)]
@@ -24,6 +26,10 @@ enum Command {
         #[arg(long, allow_negative_numbers = true)]
         y: f64,
     },
+    /// Train the siamese CNN matcher (float, CPU, candle).
+    Train(cmd::train::Args),
+    /// Quantize a trained matcher to int8 and write the core's weight file.
+    Quantize(cmd::quantize::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -33,6 +39,8 @@ fn main() -> anyhow::Result<()> {
             let world = orbfix_host::world::World::new(seed);
             println!("{:.3}", world.height_m(x, y));
         }
+        Command::Train(a) => cmd::train::run(a)?,
+        Command::Quantize(a) => cmd::quantize::run(a)?,
     }
     Ok(())
 }
