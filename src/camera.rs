@@ -321,8 +321,10 @@ mod tests {
     #[test]
     #[allow(clippy::field_reassign_with_default)]
     fn rejects_bad_parameters() {
-        let mut p = CameraParams::default();
-        p.hfov_deg = 180.0;
+        let mut p = CameraParams {
+            hfov_deg: 180.0,
+            ..Default::default()
+        };
         assert_eq!(p.validate(), Err(CameraError::FovOutOfRange));
         p = CameraParams::default();
         p.tilt_deg = f32::NAN;

@@ -12,7 +12,12 @@
 //! 1. `lut_build`: the reprojection lookup table for the pose prior ([`Lut::build`]);
 //! 2. `reproject`: the four frames sampled into the top-down image and mask ([`Lut::apply`]);
 //! 3. `localize`: masked NCC of the top-down image over the map region, coarse dense pass,
-//!    fine re-scoring of the best peaks and sub-pixel refinement ([`localize()`]).
+//!    fine re-scoring of the best peaks and sub-pixel refinement ([`localize()`]);
+//! 4. `nn_embed`: the int8 siamese CNN ([`crate::nn`], shipped weights, CRC-checked)
+//!    embeds the top-down image;
+//! 5. `nn_match`: Q15 cosine of that embedding against the embeddings of the map windows
+//!    (the study's 50 m windows every 12.5 m, 441 over 300 x 300 m), which depend only on
+//!    the map and are computed on the ground ([`map_window_embeddings`]) and stored with it.
 
 use crate::camera::{CameraParams, RoverPose};
 use crate::geo::GeoRef;
@@ -20,6 +25,9 @@ use crate::image::ImageView;
 use crate::localize::{self, LocalizeConfig, LocalizeError};
 use crate::matcher::ncc::Ncc;
 use crate::matcher::OpCounts;
+use crate::nn::input::{prepare_input, INPUT_LEN};
+use crate::nn::model::{self as nn_model, Arena, EMBED_LEN};
+use crate::nn::NnError;
 use crate::reproject::{
     ApplyReport, BuildStats, Cell, FrameStatus, GridSpec, Lut, ReprojectError, Tap,
 };
@@ -34,11 +42,21 @@ pub enum Stage {
     Reproject,
     /// Matcher over the map region (coarse dense NCC), fine re-scoring and refinement.
     Localize,
+    /// CNN embedding of the top-down image (int8 network, weights checked first).
+    NnEmbed,
+    /// Cosine scores of the embedding against the map windows' embeddings.
+    NnMatch,
 }
 
 impl Stage {
     /// Every stage, in run order.
-    pub const ALL: [Stage; 3] = [Stage::LutBuild, Stage::Reproject, Stage::Localize];
+    pub const ALL: [Stage; 5] = [
+        Stage::LutBuild,
+        Stage::Reproject,
+        Stage::Localize,
+        Stage::NnEmbed,
+        Stage::NnMatch,
+    ];
 
     /// Short lower-case name used in reports and the budget table.
     pub fn name(self) -> &'static str {
@@ -46,6 +64,8 @@ impl Stage {
             Stage::LutBuild => "lut_build",
             Stage::Reproject => "reproject",
             Stage::Localize => "localize",
+            Stage::NnEmbed => "nn_embed",
+            Stage::NnMatch => "nn_match",
         }
     }
 }
@@ -75,8 +95,20 @@ pub enum FlightError {
     Reproject(ReprojectError),
     /// Localization failed (coverage, resolution, prior outside the map, buffers).
     Localize(LocalizeError),
+    /// The CNN failed (weights, too little valid top-down image, flat input).
+    Nn(NnError),
+    /// The shipped weight file did not validate (CRC, shapes).
+    Weights,
+    /// The map-window embeddings are not a whole number of embeddings, or none.
+    BadMapEmbeddings,
     /// A scratch buffer is shorter than [`scratch_sizes`] asks.
     ScratchTooSmall,
+}
+
+impl From<NnError> for FlightError {
+    fn from(e: NnError) -> Self {
+        FlightError::Nn(e)
+    }
 }
 
 impl From<ReprojectError> for FlightError {
@@ -105,6 +137,9 @@ pub struct FlightInputs<'a> {
     pub map: ImageView<'a>,
     /// Georeference of `map` (north-west corner, metres per pixel).
     pub map_geo: GeoRef,
+    /// Embeddings of the map windows ([`map_window_embeddings`]), `EMBED_LEN` int8 each,
+    /// row-major over the window grid (computed on the ground, stored with the map).
+    pub map_embeddings: &'a [i8],
 }
 
 /// Settings of the fix.
@@ -149,7 +184,6 @@ pub fn scratch_sizes(
 }
 
 /// Caller-provided working memory of one fix (static buffers on the target).
-#[derive(Debug)]
 pub struct Scratch<'a> {
     /// Primary table, exactly [`ScratchSizes::cells`] cells.
     pub cells: &'a mut [Cell],
@@ -163,6 +197,12 @@ pub struct Scratch<'a> {
     pub loc_bytes: &'a mut [u8],
     /// Localization floats, at least [`ScratchSizes::loc_floats`].
     pub loc_floats: &'a mut [f32],
+    /// The CNN's activations and convolution scratch.
+    pub nn_arena: &'a mut Arena,
+    /// The CNN's int8 input.
+    pub nn_input: &'a mut [i8; INPUT_LEN],
+    /// The top-down image's embedding.
+    pub nn_embedding: &'a mut [i8; EMBED_LEN],
 }
 
 /// The fix part of the outputs (metres, scores as the matcher gives them).
@@ -209,6 +249,14 @@ pub struct FlightOutputs {
     pub fix: FixSummary,
     /// Operations of coarse and fine passes together.
     pub ops: OpCounts,
+    /// FNV-1a of the top-down image's int8 embedding.
+    pub embedding_hash: u32,
+    /// FNV-1a of the cosine scores (Q15, `i32` little-endian) of all map windows.
+    pub nn_scores_hash: u32,
+    /// Map windows scored by the CNN.
+    pub nn_windows: u32,
+    /// Best window (row-major index) and its Q15 cosine.
+    pub nn_best: (u32, i32),
 }
 
 const FNV_OFFSET: u32 = 0x811c_9dc5;
@@ -289,7 +337,16 @@ impl FlightOutputs {
         for v in [self.ops.macs, self.ops.windows, self.ops.downsample_px] {
             h = fnv1a(h, &v.to_le_bytes());
         }
-        h
+        fnv_u32s(
+            h,
+            &[
+                self.embedding_hash,
+                self.nn_scores_hash,
+                self.nn_windows,
+                self.nn_best.0,
+                self.nn_best.1 as u32,
+            ],
+        )
     }
 }
 
@@ -352,6 +409,30 @@ pub fn run<C: StageClock>(
     )?;
     clock.end(Stage::Localize);
 
+    clock.begin(Stage::NnEmbed);
+    let net = nn_model::shipped().map_err(|_| FlightError::Weights)?;
+    prepare_input(template.data(), Some(weight.data()), n, scratch.nn_input)?;
+    net.embed(scratch.nn_input, scratch.nn_arena, scratch.nn_embedding)?;
+    clock.end(Stage::NnEmbed);
+
+    clock.begin(Stage::NnMatch);
+    let zp = net.embedding_zero_point();
+    if inputs.map_embeddings.is_empty() || inputs.map_embeddings.len() % EMBED_LEN != 0 {
+        return Err(FlightError::BadMapEmbeddings);
+    }
+    let mut nn_scores_hash = fnv1a_start();
+    let mut nn_best = (0u32, i32::MIN);
+    let mut nn_windows = 0u32;
+    for (i, e) in inputs.map_embeddings.chunks_exact(EMBED_LEN).enumerate() {
+        let c = nn_model::cosine_q15(&scratch.nn_embedding[..], e, zp);
+        nn_scores_hash = fnv1a(nn_scores_hash, &c.to_le_bytes());
+        if c > nn_best.1 {
+            nn_best = (i as u32, c);
+        }
+        nn_windows += 1;
+    }
+    clock.end(Stage::NnMatch);
+
     let response_len = fix.coarse_grid.cols * fix.coarse_grid.rows;
     let mut response_hash = fnv1a_start();
     for v in scratch.loc_floats.iter().take(response_len) {
@@ -390,7 +471,65 @@ pub fn run<C: StageClock>(
             candidates: fix.candidates.len() as u32,
         },
         ops,
+        embedding_hash: fnv1a(
+            fnv1a_start(),
+            // int8 as their two's-complement bytes.
+            &scratch.nn_embedding.map(|v| v as u8),
+        ),
+        nn_scores_hash,
+        nn_windows,
+        nn_best,
     })
+}
+
+/// Top-left corners (map pixels) of the study's window grid over a `map_w x map_h` map:
+/// `n x n` windows (the top-down grid's size) every `n / 4` pixels (12.5 m for 50 m
+/// windows). Returns `(cols, rows, step)`.
+pub fn map_window_grid(n: usize, map_w: usize, map_h: usize) -> Option<(usize, usize, usize)> {
+    let step = (n / 4).max(1);
+    if n == 0 || map_w < n || map_h < n {
+        return None;
+    }
+    Some(((map_w - n) / step + 1, (map_h - n) / step + 1, step))
+}
+
+/// Computes the embeddings of every map window of [`map_window_grid`] into `out`
+/// (`cols * rows * EMBED_LEN` int8, row-major), with `window` (`n * n` bytes) as the copy
+/// buffer. Done on the ground once per map; the same code as the flight stage.
+pub fn map_window_embeddings(
+    map: &ImageView<'_>,
+    n: usize,
+    window: &mut [u8],
+    arena: &mut Arena,
+    input: &mut [i8; INPUT_LEN],
+    out: &mut [i8],
+) -> Result<usize, FlightError> {
+    let (cols, rows, step) =
+        map_window_grid(n, map.width(), map.height()).ok_or(FlightError::BadMapEmbeddings)?;
+    let net = nn_model::shipped().map_err(|_| FlightError::Weights)?;
+    let window = window
+        .get_mut(..n * n)
+        .ok_or(FlightError::ScratchTooSmall)?;
+    let mut emb = [0i8; EMBED_LEN];
+    let mut chunks = out.chunks_exact_mut(EMBED_LEN);
+    for r in 0..rows {
+        for c in 0..cols {
+            let sub = map
+                .sub(c * step, r * step, n, n)
+                .ok_or(FlightError::BadMapEmbeddings)?;
+            for (y, dst) in window.chunks_exact_mut(n).enumerate() {
+                let row = sub.row(y).ok_or(FlightError::BadMapEmbeddings)?;
+                dst.copy_from_slice(row);
+            }
+            prepare_input(window, None, n, input)?;
+            net.embed(input, arena, &mut emb)?;
+            chunks
+                .next()
+                .ok_or(FlightError::ScratchTooSmall)?
+                .copy_from_slice(&emb);
+        }
+    }
+    Ok(cols * rows)
 }
 
 #[cfg(test)]
@@ -399,7 +538,7 @@ mod tests {
 
     #[test]
     fn stage_names_are_distinct_and_ordered() {
-        assert_eq!(Stage::ALL.len(), 3);
+        assert_eq!(Stage::ALL.len(), 5);
         for (i, a) in Stage::ALL.iter().enumerate() {
             assert_eq!(*a as usize, i);
             for b in &Stage::ALL[i + 1..] {

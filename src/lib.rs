@@ -18,6 +18,7 @@
 //! - [`matcher`]: L1, L2 and masked NCC scoring of a top-down image against map windows;
 //! - [`localize`]: the study's 441-window search and the coarse-to-fine dense fix;
 //! - [`flight_run`]: the fix as one call with per-stage hooks (timed on target, re-run on host).
+//! - [`nn`]: quantized siamese CNN matcher (int8 kernels, weight file, shipped network).
 #![no_std]
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
@@ -32,4 +33,5 @@ pub mod geo;
 pub mod image;
 pub mod localize;
 pub mod matcher;
+pub mod nn;
 pub mod reproject;

@@ -38,12 +38,19 @@ use orbfix::flight_run::{self, FlightConfig, FlightInputs, Scratch, Stage};
 use orbfix::geo::GeoRef;
 use orbfix::image::ImageView;
 use orbfix::localize::LocalizeConfig;
+use orbfix::nn::input::INPUT_LEN;
+use orbfix::nn::model::{Arena, EMBED_LEN};
 use orbfix::reproject::{table_len, GridSpec, LutStorage, DEFAULT_EXTRA};
 use report::Line;
 
 /// The four frames, dataset order, packed (external memory: inputs).
 #[link_section = ".psram.frames"]
 static FRAMES: [u8; vectors::FRAMES_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/frames.bin"));
+/// CNN embeddings of the map windows, made on the ground with the map (external memory:
+/// inputs, int8 as bytes).
+#[link_section = ".psram.mapemb"]
+static MAP_EMB: [u8; vectors::MAP_EMB_LEN] =
+    *include_bytes!(concat!(env!("OUT_DIR"), "/map_emb.bin"));
 /// The orbital map region (external memory: inputs).
 #[link_section = ".psram.map"]
 static MAP: [u8; vectors::MAP_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/map.bin"));
@@ -61,6 +68,16 @@ static mut TOP: [u8; CELLS] = [0; CELLS];
 static mut MASK: [u8; CELLS] = [0; CELLS];
 static mut LOC_BYTES: [u8; vectors::LOC_BYTES] = [0; vectors::LOC_BYTES];
 static mut LOC_FLOATS: [f32; vectors::LOC_FLOATS] = [0.0; vectors::LOC_FLOATS];
+static mut NN_ARENA: Arena = Arena::new();
+static mut NN_INPUT: [i8; INPUT_LEN] = [0; INPUT_LEN];
+static mut NN_EMBEDDING: [i8; EMBED_LEN] = [0; EMBED_LEN];
+
+/// The map embeddings' bytes as the int8 values they are.
+fn as_i8(b: &'static [u8]) -> &'static [i8] {
+    // Safety: u8 and i8 have the same size and alignment and every bit pattern is valid
+    // for both; the slice is immutable and 'static.
+    unsafe { core::slice::from_raw_parts(b.as_ptr() as *const i8, b.len()) }
+}
 
 fn inputs() -> Option<FlightInputs<'static>> {
     let params = CameraParams {
@@ -93,6 +110,7 @@ fn inputs() -> Option<FlightInputs<'static>> {
             vectors::MAP_GEO[2],
         )
         .ok()?,
+        map_embeddings: as_i8(&MAP_EMB),
     })
 }
 
@@ -114,6 +132,9 @@ fn main() -> ! {
             mask: &mut *addr_of_mut!(MASK),
             loc_bytes: &mut *addr_of_mut!(LOC_BYTES),
             loc_floats: &mut *addr_of_mut!(LOC_FLOATS),
+            nn_arena: &mut *addr_of_mut!(NN_ARENA),
+            nn_input: &mut *addr_of_mut!(NN_INPUT),
+            nn_embedding: &mut *addr_of_mut!(NN_EMBEDDING),
         }
     };
     let mut clock = clock::StageTicks::start();

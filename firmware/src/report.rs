@@ -60,6 +60,15 @@ impl Line {
         self
     }
 
+    /// Appends a signed decimal number.
+    pub fn i32(self, v: i32) -> Self {
+        if v < 0 {
+            self.str("-").u64(v.unsigned_abs() as u64)
+        } else {
+            self.u64(v as u64)
+        }
+    }
+
     /// Appends `0x` and eight hex digits.
     pub fn hex32(mut self, v: u32) -> Self {
         self = self.str("0x");
@@ -155,6 +164,18 @@ pub fn outputs(out: &FlightOutputs) {
         .str(" ")
         .u64(out.ops.downsample_px)
         .send();
+    Line::new()
+        .str("RESULT nn ")
+        .hex32(out.embedding_hash)
+        .str(" ")
+        .hex32(out.nn_scores_hash)
+        .str(" ")
+        .u64(out.nn_windows as u64)
+        .str(" ")
+        .u64(out.nn_best.0 as u64)
+        .str(" ")
+        .i32(out.nn_best.1)
+        .send();
     Line::new().str("RESULT digest ").hex32(out.digest()).send();
 }
 
@@ -164,6 +185,9 @@ pub fn flight_error(e: &FlightError) -> &'static str {
     match e {
         FlightError::Reproject(_) => "reprojection failed (camera, grid, frame or buffer sizes)",
         FlightError::Localize(_) => "localization failed (coverage, resolution, prior or buffers)",
+        FlightError::Nn(_) => "CNN failed (too little valid top-down image or flat input)",
+        FlightError::Weights => "shipped CNN weights did not validate",
+        FlightError::BadMapEmbeddings => "map-window embeddings missing or malformed",
         FlightError::ScratchTooSmall => "scratch buffers too small",
     }
 }

@@ -9,6 +9,7 @@ pub mod budget;
 pub mod dataset;
 pub mod eval;
 pub mod fsutil;
+pub mod nn;
 pub mod render;
 pub mod reproject_ref;
 pub mod world;

@@ -44,6 +44,10 @@ enum Command {
     },
     /// Build the flight firmware, run it in QEMU and write the timing and memory budget.
     Budget(cmd::budget::Args),
+    /// Train the siamese CNN matcher (float, CPU, candle).
+    Train(cmd::train::Args),
+    /// Quantize a trained matcher to int8 and write the core's weight file.
+    Quantize(cmd::quantize::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -62,6 +66,8 @@ fn main() -> anyhow::Result<()> {
             println!("{:.3}", world.height_m(x, y));
         }
         Command::Budget(args) => cmd::budget::run(args)?,
+        Command::Train(a) => cmd::train::run(a)?,
+        Command::Quantize(a) => cmd::quantize::run(a)?,
     }
     Ok(())
 }

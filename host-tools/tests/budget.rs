@@ -15,12 +15,12 @@ fn small_cfg() -> FlightConfig {
 }
 
 fn small_vectors(seed: u64) -> Vectors {
-    Vectors::synthetic(seed, 160, 90, 60.0, 0.25).unwrap()
+    Vectors::synthetic(seed, 160, 90, 60.0, 0.25, 80).unwrap()
 }
 
 fn report_text(results: &[(String, String)]) -> String {
     let mut t = String::from("qemu noise\nORBFIX-FW 1\nSTAGE lut_build 100\nSTAGE reproject 50\n");
-    t += "STAGE localize 1000\nTOTAL 1200\n";
+    t += "STAGE localize 1000\nSTAGE nn_embed 20\nSTAGE nn_match 30\nTOTAL 1200\n";
     for (k, v) in results {
         t += &format!("RESULT {k} {v}\n");
     }
@@ -31,7 +31,7 @@ fn report_text(results: &[(String, String)]) -> String {
 #[test]
 fn parses_a_report_and_rejects_broken_ones() {
     let r = budget::parse_report(&report_text(&[("digest".into(), "0x12345678".into())])).unwrap();
-    assert_eq!(r.stages.len(), 3);
+    assert_eq!(r.stages.len(), 5);
     assert_eq!(r.stages[2], ("localize".to_string(), 1000));
     assert_eq!(r.total_ticks, 1200);
     assert_eq!(r.stack_peak_bytes, 3000);
@@ -130,9 +130,9 @@ fn writes_vectors_the_firmware_can_include() {
     assert_eq!(std::fs::read(dir.join("map.bin")).unwrap().len(), 240 * 240);
     std::fs::remove_dir_all(&dir).unwrap();
     // Bad sizes are errors, not panics.
-    assert!(Vectors::synthetic(1, 0, 90, 60.0, 0.25).is_err());
-    assert!(Vectors::synthetic(1, 160, 90, f32::NAN, 0.25).is_err());
-    assert!(Vectors::synthetic(1, 160, 90, 60.0, 0.0).is_err());
+    assert!(Vectors::synthetic(1, 0, 90, 60.0, 0.25, 80).is_err());
+    assert!(Vectors::synthetic(1, 160, 90, f32::NAN, 0.25, 80).is_err());
+    assert!(Vectors::synthetic(1, 160, 90, 60.0, 0.0, 80).is_err());
 }
 
 #[test]

@@ -94,6 +94,17 @@ pub fn host_results(out: &FlightOutputs) -> Vec<(String, String)> {
                 out.ops.macs, out.ops.windows, out.ops.downsample_px
             ),
         ),
+        (
+            "nn".to_string(),
+            format!(
+                "0x{:08x} 0x{:08x} {} {} {}",
+                out.embedding_hash,
+                out.nn_scores_hash,
+                out.nn_windows,
+                out.nn_best.0,
+                out.nn_best.1
+            ),
+        ),
         ("digest".to_string(), format!("0x{:08x}", out.digest())),
     ]
 }
@@ -448,6 +459,11 @@ pub fn stage_units(
         Stage::LutBuild => Some((cells, "grid cell")),
         Stage::Reproject => Some((cells, "output pixel")),
         Stage::Localize => Some((out.ops.macs, "MAC")),
+        Stage::NnEmbed => Some((orbfix::nn::model::embedding_macs(), "MAC")),
+        Stage::NnMatch => Some((
+            out.nn_windows as u64 * orbfix::nn::model::EMBED_LEN as u64,
+            "embedding element",
+        )),
     }
 }
 

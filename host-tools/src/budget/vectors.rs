@@ -8,6 +8,8 @@ use orbfix::camera::{CameraParams, RoverPose};
 use orbfix::flight_run::{self, FlightConfig, FlightInputs, FlightOutputs, NoClock, Scratch};
 use orbfix::geo::GeoRef;
 use orbfix::image::ImageView;
+use orbfix::nn::input::INPUT_LEN;
+use orbfix::nn::model::{Arena, EMBED_LEN};
 use orbfix::reproject::{Cell, Tap};
 use std::path::Path;
 
@@ -30,6 +32,10 @@ pub struct Vectors {
     pub map_h: usize,
     /// Map georeference.
     pub map_geo: GeoRef,
+    /// Side of the top-down grid (cells) the map-window embeddings were made for.
+    pub grid_n: usize,
+    /// CNN embeddings of the map windows (computed on the ground with the core's network).
+    pub map_embeddings: Vec<i8>,
     /// How these vectors were made (for reports).
     pub source: String,
 }
@@ -74,6 +80,20 @@ fn texture(w: usize, h: usize, cell: usize, rng: &mut SplitMix) -> Vec<u8> {
         .collect()
 }
 
+/// CNN embeddings of the windows of an `n x n` map for a `grid_n` top-down grid.
+fn embed_map(map: &[u8], n: usize, grid_n: usize) -> Result<Vec<i8>> {
+    let (cols, rows, _) = flight_run::map_window_grid(grid_n, n, n)
+        .with_context(|| format!("the map ({n} px) is smaller than a {grid_n} px window"))?;
+    let view = ImageView::new(map, n, n).map_err(|e| anyhow::anyhow!("map: {e:?}"))?;
+    let mut out = vec![0i8; cols * rows * EMBED_LEN];
+    let mut window = vec![0u8; grid_n * grid_n];
+    let mut arena = Box::new(Arena::new());
+    let mut input = Box::new([0i8; INPUT_LEN]);
+    flight_run::map_window_embeddings(&view, grid_n, &mut window, &mut arena, &mut input, &mut out)
+        .map_err(|e| anyhow::anyhow!("cannot embed the map windows: {e:?}"))?;
+    Ok(out)
+}
+
 impl Vectors {
     /// Deterministic synthetic vectors of `seed`: a value-noise orbital map of
     /// `map_size_m` square at `m_per_px` (the top-down grid's resolution) centred on the
@@ -87,6 +107,7 @@ impl Vectors {
         height_px: u32,
         map_size_m: f32,
         m_per_px: f32,
+        grid_n: usize,
     ) -> Result<Self> {
         let params = CameraParams {
             width_px,
@@ -143,6 +164,7 @@ impl Vectors {
         for v in &views {
             frames.extend_from_slice(v.as_raw());
         }
+        let map_embeddings = embed_map(&map, n, grid_n)?;
         Ok(Self {
             params,
             pose,
@@ -152,6 +174,8 @@ impl Vectors {
             map_w: n,
             map_h: n,
             map_geo,
+            grid_n,
+            map_embeddings,
             source: format!(
                 "synthetic (seed {seed}): value-noise map {n} x {n} px at {m_per_px} m/px \
                  ({map_size_m} m), four {width_px} x {height_px} frames rendered over it as flat \
@@ -195,6 +219,7 @@ impl Vectors {
             map: ImageView::new(&self.map, self.map_w, self.map_h)
                 .map_err(|e| anyhow::anyhow!("map: {e:?}"))?,
             map_geo: self.map_geo,
+            map_embeddings: &self.map_embeddings,
         })
     }
 
@@ -209,6 +234,9 @@ impl Vectors {
         let mut mask = vec![0u8; sz.top];
         let mut loc_bytes = vec![0u8; sz.loc_bytes];
         let mut loc_floats = vec![0f32; sz.loc_floats];
+        let mut nn_arena = Box::new(Arena::new());
+        let mut nn_input = Box::new([0i8; INPUT_LEN]);
+        let mut nn_embedding = Box::new([0i8; EMBED_LEN]);
         let mut scratch = Scratch {
             cells: &mut cells,
             extra: &mut extra,
@@ -216,6 +244,9 @@ impl Vectors {
             mask: &mut mask,
             loc_bytes: &mut loc_bytes,
             loc_floats: &mut loc_floats,
+            nn_arena: &mut nn_arena,
+            nn_input: &mut nn_input,
+            nn_embedding: &mut nn_embedding,
         };
         flight_run::run(&self.inputs()?, cfg, &mut scratch, &mut NoClock)
             .map_err(|e| anyhow::anyhow!("the core rejected the test vectors: {e:?}"))
@@ -245,7 +276,8 @@ impl Vectors {
              /// origin_x_m (west edge), origin_y_m (north edge), m_per_px.\n\
              pub const MAP_GEO: [f32; 3] = [{}, {}, {}];\n\
              pub const GRID_N: usize = {};\npub const GRID_M_PER_PX: f32 = {};\n\
-             pub const LOC_BYTES: usize = {};\npub const LOC_FLOATS: usize = {};\n",
+             pub const LOC_BYTES: usize = {};\npub const LOC_FLOATS: usize = {};\n\
+             pub const MAP_EMB_LEN: usize = {};\n",
             self.source,
             p.width_px,
             p.height_px,
@@ -269,9 +301,12 @@ impl Vectors {
             f(cfg.grid.m_per_px),
             sz.loc_bytes,
             sz.loc_floats,
+            self.map_embeddings.len(),
         );
         write_atomic(&dir.join("frames.bin"), &self.frames)?;
         write_atomic(&dir.join("map.bin"), &self.map)?;
+        let emb: Vec<u8> = self.map_embeddings.iter().map(|&v| v as u8).collect();
+        write_atomic(&dir.join("map_emb.bin"), &emb)?;
         write_atomic(&dir.join("vectors.rs"), src.as_bytes())?;
         Ok(())
     }

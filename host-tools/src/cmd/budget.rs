@@ -263,6 +263,7 @@ pub fn run(args: Args) -> Result<()> {
         args.height,
         args.map_size_m,
         cfg.grid.m_per_px,
+        cfg.grid.n,
     )?;
     let host = v.host_run(&cfg)?;
     v.write(&vectors_dir, &cfg)?;

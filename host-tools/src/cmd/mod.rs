@@ -8,4 +8,6 @@ pub mod eval;
 pub mod generate;
 pub mod localize;
 pub mod map;
+pub mod quantize;
 pub mod render;
+pub mod train;
