@@ -246,16 +246,9 @@ pub fn elf_sizes(data: &[u8]) -> Result<ElfSizes> {
 
 /// Whether a symbol name is one of core's panic entry points (or the panic handler).
 fn is_panic_symbol(name: &str) -> bool {
-    [
-        "panic",
-        "unwrap_failed",
-        "expect_failed",
-        "index_fail",
-        "len_fail",
-        "order_fail",
-    ]
-    .iter()
-    .any(|k| name.contains(k))
+    // `_fail` covers core's `*_fail` / `*_failed` helpers (slice index, copy length,
+    // unwrap, expect) that lead to the panic handler.
+    ["panic", "_fail"].iter().any(|k| name.contains(k))
 }
 
 /// Target of a 32-bit Thumb-2 `BL` (T1) or `B.W` (T4) at `addr` made of halfwords `h1`,
