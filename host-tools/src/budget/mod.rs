@@ -419,6 +419,25 @@ pub struct FixReport {
     pub confidence: f32,
     /// Peak on the search border (a failure).
     pub on_border: bool,
+    /// CNN: best-scoring map window (row-major index of the 50 m / 12.5 m grid).
+    pub nn_best_window: u32,
+    /// CNN: the window nearest the true position.
+    pub nn_true_window: u32,
+    /// CNN: windows scored.
+    pub nn_windows: u32,
+}
+
+/// Row-major index of the map window whose centre is nearest the true position.
+fn true_window(cfg: &FlightConfig, v: &Vectors) -> u32 {
+    let n = cfg.grid.n;
+    let Some((cols, rows, step)) = orbfix::flight_run::map_window_grid(n, v.map_w, v.map_h) else {
+        return u32::MAX;
+    };
+    let (c, r) = v.map_geo.to_pixel(v.truth_m.0, v.truth_m.1);
+    let pick = |p: f32, k: usize| {
+        (((p - n as f32 / 2.0) / step as f32).round().max(0.0) as usize).min(k - 1)
+    };
+    (pick(r, rows) * cols + pick(c, cols)) as u32
 }
 
 /// Settings of the time estimates.
@@ -543,6 +562,9 @@ pub fn assemble(
                 prior_error_m: d(v.pose.x_m, v.pose.y_m),
                 confidence: host.fix.confidence,
                 on_border: host.fix.on_border,
+                nn_best_window: host.nn_best.0,
+                nn_true_window: true_window(cfg, v),
+                nn_windows: host.nn_windows,
             }
         },
         bit_exact: report.ok && mismatches.is_empty() && !expected.is_empty(),
@@ -712,6 +734,12 @@ impl Budget {
             } else {
                 ""
             }
+        ));
+        m.push_str(&format!(
+            "CNN window ranking: best window {} of {}, window nearest the truth {}. \
+             The shipped network was trained on rendered lunar terrain; these vectors are \
+             value noise, so its ranking here says nothing about its accuracy.\n\n",
+            self.fix.nn_best_window, self.fix.nn_windows, self.fix.nn_true_window
         ));
         m.push_str("## Bit-exactness\n\n");
         if self.bit_exact {
