@@ -737,8 +737,8 @@ impl Budget {
         ));
         m.push_str(&format!(
             "CNN window ranking: best window {} of {}, window nearest the truth {}. \
-             The shipped network was trained on rendered lunar terrain; these vectors are \
-             value noise, so its ranking here says nothing about its accuracy.\n\n",
+             These synthetic value-noise vectors are for measuring cost; this ranking is not \
+             a measurement of the network's accuracy.\n\n",
             self.fix.nn_best_window, self.fix.nn_windows, self.fix.nn_true_window
         ));
         m.push_str("## Bit-exactness\n\n");
