@@ -13,10 +13,12 @@
 //! Modules, one concept each:
 //! - [`image`]: borrowed 8-bit grayscale image views;
 //! - [`geo`]: georeference of north-up rasters;
-//! - [`camera`]: pinhole camera model of the rover's four views.
+//! - [`camera`]: pinhole camera model of the rover's four views;
 //! - [`reproject`]: integer lookup-table reprojection of the four views to a top-down grid;
 //! - [`matcher`]: L1, L2 and masked NCC scoring of a top-down image against map windows;
-//! - [`localize`]: the study's 441-window search and the coarse-to-fine dense fix.
+//! - [`localize`]: the study's 441-window search and the coarse-to-fine dense fix;
+//! - [`flight_run`]: the fix as one call with per-stage hooks (timed on target, re-run on host).
+//! - [`nn`]: quantized siamese CNN matcher (int8 kernels, weight file, shipped network).
 #![no_std]
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
@@ -26,8 +28,10 @@
 )]
 
 pub mod camera;
+pub mod flight_run;
 pub mod geo;
 pub mod image;
 pub mod localize;
 pub mod matcher;
+pub mod nn;
 pub mod reproject;

@@ -5,9 +5,11 @@
 //! budget. Uses the `orbfix` core as a library; frames and units are those of the core
 //! (`docs/frames.md`).
 
+pub mod budget;
 pub mod dataset;
 pub mod eval;
 pub mod fsutil;
+pub mod nn;
 pub mod render;
 pub mod reproject_bench;
 pub mod reproject_ref;

@@ -46,6 +46,12 @@ enum Command {
         #[arg(long, allow_negative_numbers = true)]
         y: f64,
     },
+    /// Build the flight firmware, run it in QEMU and write the timing and memory budget.
+    Budget(cmd::budget::Args),
+    /// Train the siamese CNN matcher (float, CPU, candle).
+    Train(cmd::train::Args),
+    /// Quantize a trained matcher to int8 and write the core's weight file.
+    Quantize(cmd::quantize::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -65,6 +71,9 @@ fn main() -> anyhow::Result<()> {
             let world = orbfix_host::world::World::new(seed);
             println!("{:.3}", world.height_m(x, y));
         }
+        Command::Budget(args) => cmd::budget::run(args)?,
+        Command::Train(a) => cmd::train::run(a)?,
+        Command::Quantize(a) => cmd::quantize::run(a)?,
     }
     Ok(())
 }

@@ -1,12 +1,15 @@
-//! Subcommands of `orbfix`, one module each.
+//! Subcommands of `orbfix`, one module each (each has `Args` and `run`).
 
 pub mod bench;
 pub mod bench_localize;
+pub mod budget;
 pub mod demo;
 pub mod eval;
 pub mod generate;
 pub mod localize;
 pub mod map;
+pub mod quantize;
 pub mod render;
 pub mod reproject;
 pub mod results;
+pub mod train;

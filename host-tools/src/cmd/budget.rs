@@ -1,0 +1,370 @@
+//! `orbfix budget`: build the flight firmware on test vectors, run it in QEMU, and write the
+//! timing and memory budget (docs/timing-budget.md and a JSON file).
+
+use anyhow::{bail, ensure, Context, Result};
+use orbfix::flight_run::FlightConfig;
+use orbfix_host::budget::{self, Estimate, Vectors};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Flight targets the budget can be measured on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Target {
+    /// Arm Cortex-M7 (thumbv7em-none-eabihf) on QEMU's mps2-an500.
+    CortexM7,
+}
+
+impl Target {
+    fn name(self) -> &'static str {
+        match self {
+            Target::CortexM7 => "cortex-m7",
+        }
+    }
+}
+
+/// Build the flight firmware, run it in QEMU and write the timing and memory budget.
+///
+/// Steps: write test vectors (synthetic, deterministic) and compute the host's results with
+/// the same core code; install the cross toolchain if needed (scripts/flight-toolchain.sh);
+/// build firmware/ for thumbv7em-none-eabihf; run it under
+/// `qemu-system-arm -machine mps2-an500 -icount shift=0`; read per-stage instruction counts,
+/// the stack high-water mark and the results from its semihosting report, and flash and
+/// static RAM from the ELF; write the table to --md and --json. Fails (after writing both)
+/// if the firmware's results are not bit-exact with the host's.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Flight target.
+    #[arg(long, value_enum, default_value_t = Target::CortexM7)]
+    pub target: Target,
+    /// Clock of the flight computer for the millisecond estimates, MHz.
+    #[arg(long, default_value_t = 100.0)]
+    pub clock_mhz: f64,
+    /// Cycles per instruction assumed for the millisecond estimates.
+    #[arg(long, default_value_t = 1.0)]
+    pub cpi: f64,
+    /// Where to write the budget as JSON.
+    #[arg(long)]
+    pub json: PathBuf,
+    /// Where to write the budget as Markdown [default: <repo>/docs/timing-budget.md].
+    #[arg(long)]
+    pub md: Option<PathBuf>,
+    /// Repository root (holds firmware/ and memory.x) [default: found from the current folder].
+    #[arg(long)]
+    pub repo: Option<PathBuf>,
+    /// Folder for the test vectors [default: <cargo target dir>/flight-vectors].
+    #[arg(long)]
+    pub vectors_dir: Option<PathBuf>,
+    /// Environment file from scripts/flight-toolchain.sh [default: run the script].
+    #[arg(long)]
+    pub toolchain_env: Option<PathBuf>,
+    /// Seed of the synthetic test vectors.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Frame width, pixels.
+    #[arg(long, default_value_t = 640)]
+    pub width: u32,
+    /// Frame height, pixels.
+    #[arg(long, default_value_t = 360)]
+    pub height: u32,
+    /// Side of the orbital map region, metres.
+    #[arg(long, default_value_t = 300.0)]
+    pub map_size_m: f32,
+    /// Measure even if the firmware is not panic free (it is then built with its
+    /// `allow-panic` feature, and the budget records `panic_free: false` and where).
+    #[arg(long)]
+    pub allow_panic: bool,
+    /// Give up on QEMU after this many seconds.
+    #[arg(long, default_value_t = 300)]
+    pub qemu_timeout_s: u64,
+}
+
+fn find_repo(given: Option<PathBuf>) -> Result<PathBuf> {
+    let is_repo =
+        |p: &Path| p.join("firmware/Cargo.toml").is_file() && p.join("memory.x").is_file();
+    if let Some(p) = given {
+        ensure!(
+            is_repo(&p),
+            "{} has no firmware/Cargo.toml and memory.x: pass the orbfix repository root to --repo",
+            p.display()
+        );
+        return Ok(p);
+    }
+    let mut dir = std::env::current_dir().context("cannot read the current folder")?;
+    loop {
+        if is_repo(&dir) {
+            return Ok(dir);
+        }
+        if !dir.pop() {
+            break;
+        }
+    }
+    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    ensure!(is_repo(&built), "cannot find the orbfix repository (firmware/ and memory.x): run from inside it or pass --repo");
+    Ok(built)
+}
+
+fn toolchain_env(repo: &Path, given: Option<PathBuf>) -> Result<PathBuf> {
+    if let Some(p) = given {
+        ensure!(
+            p.is_file(),
+            "toolchain environment {} does not exist: run `bash scripts/flight-toolchain.sh`",
+            p.display()
+        );
+        return Ok(p);
+    }
+    eprintln!("budget: checking the cross toolchain (scripts/flight-toolchain.sh)");
+    let out = Command::new("bash")
+        .arg(repo.join("scripts/flight-toolchain.sh"))
+        .current_dir(repo)
+        .stderr(Stdio::inherit())
+        .output()
+        .context("cannot run bash scripts/flight-toolchain.sh")?;
+    ensure!(
+        out.status.success(),
+        "scripts/flight-toolchain.sh failed (its messages are above)"
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let last = text
+        .lines()
+        .last()
+        .context("scripts/flight-toolchain.sh printed no environment file")?;
+    Ok(PathBuf::from(last.trim()))
+}
+
+/// Why a firmware build failed.
+enum BuildError {
+    /// The link failed because a panic path remains (the no-panic check).
+    PanicPath,
+    /// Anything else.
+    Other(anyhow::Error),
+}
+
+const PANIC_SYMBOL: &str = "orbfix_firmware_error_a_panic_path_remains";
+
+fn build_firmware(
+    repo: &Path,
+    env_file: &Path,
+    vectors: &Path,
+    target_dir: &Path,
+    allow_panic: bool,
+) -> std::result::Result<PathBuf, BuildError> {
+    eprintln!(
+        "budget: building firmware/ for thumbv7em-none-eabihf{}",
+        if allow_panic { " (allow-panic)" } else { "" }
+    );
+    let features = if allow_panic {
+        "--features allow-panic"
+    } else {
+        ""
+    };
+    let out = Command::new("bash")
+        .arg("-c")
+        .arg(format!(
+            "set -e; source \"$1\"; cd firmware; cargo build --release {features} $ORBFIX_FLIGHT_CARGO_FLAGS"
+        ))
+        .arg("bash")
+        .arg(env_file)
+        .current_dir(repo)
+        .env("ORBFIX_VECTORS_DIR", vectors)
+        .env("CARGO_TARGET_DIR", target_dir)
+        .stdout(Stdio::inherit())
+        .stderr(Stdio::piped())
+        .output()
+        .map_err(|e| BuildError::Other(anyhow::Error::new(e).context("cannot run cargo for the firmware")))?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success() {
+        if err.contains(PANIC_SYMBOL) {
+            return Err(BuildError::PanicPath);
+        }
+        eprint!("{err}");
+        return Err(BuildError::Other(anyhow::anyhow!(
+            "building the firmware failed (cargo's messages are above)"
+        )));
+    }
+    Ok(target_dir.join("thumbv7em-none-eabihf/release/orbfix-firmware"))
+}
+
+/// Runs the ELF in QEMU; returns (exit code, stdout).
+fn run_qemu(elf: &Path, timeout: Duration) -> Result<(Option<i32>, String)> {
+    eprintln!(
+        "budget: running {} in qemu-system-arm (mps2-an500, -icount shift=0)",
+        elf.display()
+    );
+    let mut child = Command::new("qemu-system-arm")
+        .args(["-cpu", "cortex-m7", "-machine", "mps2-an500", "-nographic"])
+        .args(["-semihosting-config", "enable=on,target=native", "-icount", "shift=0"])
+        .args(["-monitor", "none", "-serial", "none", "-kernel"])
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .context("cannot start qemu-system-arm: install it (`apt-get install qemu-system-arm`, or run scripts/flight-toolchain.sh as root)")?;
+    // Semihosting console output arrives on QEMU's stderr; keep stdout too.
+    let mut stdout = child.stdout.take().context("no stdout from QEMU")?;
+    let mut stderr = child.stderr.take().context("no stderr from QEMU")?;
+    let out_reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stdout.read_to_string(&mut s);
+        s
+    });
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stderr.read_to_string(&mut s);
+        s + &out_reader.join().unwrap_or_default()
+    });
+    let start = Instant::now();
+    let code = loop {
+        if let Some(st) = child.try_wait().context("waiting for QEMU")? {
+            break st.code();
+        }
+        if start.elapsed() > timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            let text = reader.join().unwrap_or_default();
+            bail!(
+                "QEMU ran longer than {} s and was stopped; output so far:\n{text}",
+                timeout.as_secs()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let text = reader.join().unwrap_or_default();
+    Ok((code, text))
+}
+
+/// Runs `orbfix budget`.
+pub fn run(args: Args) -> Result<()> {
+    ensure!(
+        args.clock_mhz.is_finite() && args.clock_mhz > 0.0,
+        "--clock-mhz must be a positive number, got {}",
+        args.clock_mhz
+    );
+    ensure!(
+        args.cpi.is_finite() && args.cpi > 0.0,
+        "--cpi must be a positive number, got {}",
+        args.cpi
+    );
+    let repo = find_repo(args.repo.clone())?;
+    let target_dir = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo.join("target"));
+    let vectors_dir = args
+        .vectors_dir
+        .clone()
+        .unwrap_or_else(|| target_dir.join("flight-vectors"));
+
+    let cfg = FlightConfig::default();
+    let v = Vectors::synthetic(
+        args.seed,
+        args.width,
+        args.height,
+        args.map_size_m,
+        cfg.grid.m_per_px,
+        cfg.grid.n,
+    )?;
+    let host = v.host_run(&cfg)?;
+    v.write(&vectors_dir, &cfg)?;
+    eprintln!(
+        "budget: test vectors in {} ({})",
+        vectors_dir.display(),
+        v.describe()
+    );
+
+    let env_file = toolchain_env(&repo, args.toolchain_env.clone())?;
+    let (elf, panic_free) = match build_firmware(&repo, &env_file, &vectors_dir, &target_dir, false)
+    {
+        Ok(elf) => (elf, true),
+        Err(BuildError::Other(e)) => return Err(e),
+        Err(BuildError::PanicPath) => {
+            eprintln!(
+                "budget: the firmware does NOT link: a panic path remains in the code it \
+                     runs (no-panic check, docs/flight-target.md); rebuilding with allow-panic \
+                     to find where"
+            );
+            match build_firmware(&repo, &env_file, &vectors_dir, &target_dir, true) {
+                Ok(elf) => (elf, false),
+                Err(BuildError::PanicPath) => {
+                    bail!("the allow-panic build still refers to the panic symbol")
+                }
+                Err(BuildError::Other(e)) => return Err(e),
+            }
+        }
+    };
+    let elf_bytes = std::fs::read(&elf)
+        .with_context(|| format!("cannot read the firmware {}", elf.display()))?;
+    let sites = if panic_free {
+        Vec::new()
+    } else {
+        budget::panic_sites(&elf_bytes)?
+    };
+    if !panic_free {
+        eprintln!("budget: panic paths (caller -> panic function (call sites)):");
+        for (a, b, n) in &sites {
+            eprintln!("  {a} -> {b} ({n})");
+        }
+        if !args.allow_panic {
+            bail!(
+                "the firmware is not panic free ({} call sites above); fix them, or pass \
+                 --allow-panic to measure anyway (the budget then records panic_free: false)",
+                sites.iter().map(|s| s.2).sum::<usize>()
+            );
+        }
+    }
+    let sizes = budget::elf_sizes(&elf_bytes)?;
+
+    let (code, text) = run_qemu(&elf, Duration::from_secs(args.qemu_timeout_s))?;
+    let report = budget::parse_report(&text)?;
+    let est = Estimate {
+        target: args.target.name().to_string(),
+        clock_mhz: args.clock_mhz,
+        cpi: args.cpi,
+    };
+    let mut b = budget::assemble(&est, &report, &sizes, &cfg, &host, &v, &sites);
+    if !panic_free && b.panic_sites.is_empty() {
+        // The link failed on the panic symbol but no call site was decoded: still not free.
+        b.panic_free = false;
+        b.panic_sites.push("(call sites not decoded)".to_string());
+    }
+
+    let command = format!(
+        "orbfix budget --target {} --clock-mhz {} --cpi {} --json {}{}",
+        est.target,
+        args.clock_mhz,
+        args.cpi,
+        args.json.display(),
+        if args.allow_panic {
+            " --allow-panic"
+        } else {
+            ""
+        }
+    );
+    let md = args
+        .md
+        .clone()
+        .unwrap_or_else(|| repo.join("docs/timing-budget.md"));
+    budget::write_atomic(&md, b.markdown(&command).as_bytes())?;
+    let json = serde_json::to_string_pretty(&b).context("cannot serialize the budget")?;
+    budget::write_atomic(&args.json, json.as_bytes())?;
+    eprintln!("budget: wrote {} and {}", md.display(), args.json.display());
+    println!(
+        "total {} instructions ({:.2} ms at {} MHz, CPI {}), working RAM {} B (static {} + stack {}), flash {} B, bit_exact {}",
+        b.total_instructions, b.total_ms, b.clock_mhz, b.cpi, b.working_ram_bytes, b.static_ram_bytes,
+        b.stack_peak_bytes, b.flash_bytes, b.bit_exact
+    );
+    if !report.ok {
+        bail!(
+            "the firmware reported failure ({:?}; QEMU exit code {code:?})",
+            report.errors
+        );
+    }
+    if !b.bit_exact {
+        bail!(
+            "the firmware's results differ from the host's for: {:?}",
+            b.mismatches
+        );
+    }
+    Ok(())
+}

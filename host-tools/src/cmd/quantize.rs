@@ -1,0 +1,115 @@
+//! `orbfix quantize`: post-training int8 quantization of a trained checkpoint, calibrated
+//! on validation-zone inputs; writes the `.ofw` file the core embeds, checks it with the
+//! core's own parser, and evaluates float vs int8 (vs masked NCC) on the test zone.
+
+use anyhow::{Context, Result};
+use orbfix::nn::model::{embedding_macs, weight_count, SiameseNet};
+use orbfix_host::nn::data::{triplet, TEST_ZONE, VAL_ZONE};
+use orbfix_host::nn::eval::{cases, evaluate, Metrics, Scorer};
+use orbfix_host::nn::float_model::FloatNet;
+use orbfix_host::nn::quantize::{calibrate, quantize};
+use orbfix_host::nn::train::write_atomic;
+use orbfix_host::world::World;
+use rayon::prelude::*;
+use std::path::PathBuf;
+
+/// Quantize a trained checkpoint to int8 and write the core's weight file.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Float checkpoint written by `orbfix train`.
+    #[arg(long, default_value = "runs/matcher/checkpoint.safetensors")]
+    pub checkpoint: PathBuf,
+    /// Output weight file (the core embeds weights/matcher-v1.ofw).
+    #[arg(long, default_value = "weights/matcher-v1.ofw")]
+    pub out: PathBuf,
+    /// World seed.
+    #[arg(long, default_value_t = 1)]
+    pub world_seed: u64,
+    /// Calibration inputs (validation zone; half rover side, half satellite side).
+    #[arg(long, default_value_t = 256)]
+    pub calibration: usize,
+    /// Test locations per condition for the float / int8 / NCC comparison (0: skip).
+    #[arg(long, default_value_t = 20)]
+    pub eval_locations: usize,
+    /// Seed of the test locations (never used in training: those come from the test zone).
+    #[arg(long, default_value_t = 1000)]
+    pub eval_seed: u64,
+    /// Write the metrics as JSON here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+}
+
+fn row(name: &str, m: &Metrics) {
+    println!(
+        "{name:<24} {:>4} {:>6.3} {:>6.3} {:>6.3} {:>8.1} {:>8.1} {:>6.3}",
+        m.n,
+        m.recall_at_1,
+        m.recall_at_5,
+        m.recall_at_10,
+        m.median_error_m,
+        m.p95_error_m,
+        m.pair_auc
+    );
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let net = FloatNet::load(&a.checkpoint)?;
+    let world = World::new(a.world_seed);
+    anyhow::ensure!(a.calibration >= 2, "--calibration must be at least 2");
+    let calib: Vec<_> = (0..a.calibration as u64 / 2)
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            let t = triplet(&world, &VAL_ZONE, 0xCA11_B4A7, i, 0.5, 0.15);
+            [t.rover, t.positive]
+        })
+        .collect();
+    let ranges = calibrate(&net, &calib)?;
+    let q = quantize(&net, &ranges)?;
+    let bytes = q.to_bytes();
+    // The core must accept what we ship.
+    let qnet = SiameseNet::from_bytes(&bytes)
+        .map_err(|e| anyhow::anyhow!("the core rejects the quantized file: {e:?}"))?;
+    if let Some(dir) = a.out.parent() {
+        if !dir.as_os_str().is_empty() {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+    }
+    write_atomic(&a.out, &bytes)?;
+    println!(
+        "wrote {} ({} bytes; {} int8 weights, {} MACs per embedding)",
+        a.out.display(),
+        bytes.len(),
+        weight_count(),
+        embedding_macs()
+    );
+    for (i, (l, r)) in q.layers.iter().zip(&ranges).enumerate() {
+        println!(
+            "  layer {i}: range [{:.3}, {:.3}] scale {:.5} zp {}",
+            r.0, r.1, l.output_scale, l.output_zp
+        );
+    }
+    if a.eval_locations == 0 {
+        return Ok(());
+    }
+    let mut report = serde_json::Map::new();
+    println!(
+        "{:<24} {:>4} {:>6} {:>6} {:>6} {:>8} {:>8} {:>6}",
+        "matcher / sun", "n", "R@1", "R@5", "R@10", "med m", "p95 m", "AUC"
+    );
+    for (label, cross) in [("same-sun", false), ("cross-sun", true)] {
+        let cs = cases(&world, &TEST_ZONE, a.eval_locations, a.eval_seed, cross);
+        for (name, scorer) in [
+            ("masked-ncc", Scorer::MaskedNcc),
+            ("cnn-f32", Scorer::Float(&net)),
+            ("cnn-int8", Scorer::Int8(&qnet)),
+        ] {
+            let m = evaluate(&scorer, &cs)?;
+            row(&format!("{name} {label}"), &m);
+            report.insert(format!("{name}/{label}"), serde_json::to_value(&m)?);
+        }
+    }
+    if let Some(p) = &a.report {
+        write_atomic(p, &serde_json::to_vec_pretty(&report)?)?;
+    }
+    Ok(())
+}

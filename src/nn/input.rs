@@ -1,0 +1,165 @@
+//! Network input: a 50 m x 50 m north-up grayscale raster and its validity mask, area-
+//! downsampled to `INPUT_SIDE x INPUT_SIDE` and normalized to zero mean, unit standard
+//! deviation over the valid pixels, quantized with scale `1 / INPUT_UNITS_PER_SIGMA`, zero
+//! point 0. Invalid pixels become 0 (the mean), so the mask multiplies the input.
+//!
+//! Integer only: box sums, a Q4 mean per cell, an integer square root and one int64
+//! division per pixel.
+
+use super::NnError;
+
+/// Input side, pixels (50 m / 64 = 0.78125 m per pixel).
+pub const INPUT_SIDE: usize = 64;
+/// Input elements.
+pub const INPUT_LEN: usize = INPUT_SIDE * INPUT_SIDE;
+/// Quantized units per standard deviation: the input scale is `1 / 32`, so int8 covers
+/// about +-4 sigma.
+pub const INPUT_UNITS_PER_SIGMA: i64 = 32;
+/// Fewest valid cells (of [`INPUT_LEN`]) accepted: one eighth of the window.
+pub const MIN_VALID_CELLS: usize = INPUT_LEN / 8;
+
+/// Integer square root (floor).
+pub const fn isqrt_u64(n: u64) -> u64 {
+    if n < 2 {
+        return n;
+    }
+    let mut x = n;
+    let mut y = x.div_ceil(2);
+    // Newton from above converges monotonically to floor(sqrt(n)).
+    while y < x {
+        x = y;
+        y = (x + n / x) / 2;
+    }
+    x
+}
+
+/// Q4 mean of the valid source pixels of output cell `(oy, ox)`, or `None` if none is valid.
+#[inline]
+fn cell(src: &[u8], mask: Option<&[u8]>, side: usize, oy: usize, ox: usize) -> Option<u32> {
+    let (r0, r1) = (oy * side / INPUT_SIDE, (oy + 1) * side / INPUT_SIDE);
+    let (c0, c1) = (ox * side / INPUT_SIDE, (ox + 1) * side / INPUT_SIDE);
+    let (mut sum, mut n) = (0u32, 0u32);
+    for r in r0..r1 {
+        let row = &src[r * side + c0..r * side + c1];
+        match mask {
+            Some(m) => {
+                let mrow = &m[r * side + c0..r * side + c1];
+                for (&v, &ok) in row.iter().zip(mrow) {
+                    if ok != 0 {
+                        sum += v as u32;
+                        n += 1;
+                    }
+                }
+            }
+            None => {
+                for &v in row {
+                    sum += v as u32;
+                }
+                n += row.len() as u32;
+            }
+        }
+    }
+    (sum * 16 + n / 2).checked_div(n)
+}
+
+/// Builds the network input from a `side x side` raster (`side >= INPUT_SIDE`) covering
+/// 50 m x 50 m and an optional mask of the same size (non-zero = valid pixel).
+///
+/// Errors: wrong buffer sizes ([`NnError::BufferSize`]), fewer than [`MIN_VALID_CELLS`]
+/// valid cells ([`NnError::TooFewValid`]), or no contrast among them ([`NnError::FlatInput`],
+/// e.g. a black or saturated frame).
+pub fn prepare_input(
+    src: &[u8],
+    mask: Option<&[u8]>,
+    side: usize,
+    out: &mut [i8; INPUT_LEN],
+) -> Result<(), NnError> {
+    if side < INPUT_SIDE || src.len() != side * side || mask.is_some_and(|m| m.len() != side * side)
+    {
+        return Err(NnError::BufferSize);
+    }
+    let (mut n, mut s, mut q) = (0u64, 0u64, 0u64);
+    for oy in 0..INPUT_SIDE {
+        for ox in 0..INPUT_SIDE {
+            if let Some(v) = cell(src, mask, side, oy, ox) {
+                n += 1;
+                s += v as u64;
+                q += (v as u64) * (v as u64);
+            }
+        }
+    }
+    if (n as usize) < MIN_VALID_CELLS {
+        return Err(NnError::TooFewValid);
+    }
+    // n * std (Q4 units) = sqrt(n Q - S^2).
+    let std_n = isqrt_u64(n * q - s * s) as i64;
+    // Below 1/4 grey level of standard deviation there is nothing to match.
+    if std_n * 4 < n as i64 * 16 {
+        return Err(NnError::FlatInput);
+    }
+    let (n, s) = (n as i64, s as i64);
+    for oy in 0..INPUT_SIDE {
+        for ox in 0..INPUT_SIDE {
+            out[oy * INPUT_SIDE + ox] = match cell(src, mask, side, oy, ox) {
+                None => 0,
+                Some(v) => {
+                    let num = INPUT_UNITS_PER_SIGMA * (n * v as i64 - s);
+                    // Round half away from zero.
+                    let r = if num >= 0 {
+                        (2 * num + std_n) / (2 * std_n)
+                    } else {
+                        (2 * num - std_n) / (2 * std_n)
+                    };
+                    r.clamp(-127, 127) as i8
+                }
+            };
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn isqrt_is_floor_sqrt() {
+        for n in [0u64, 1, 2, 3, 4, 15, 16, 17, 99, 100, 1 << 40, u64::MAX] {
+            let r = isqrt_u64(n);
+            assert!(r.checked_mul(r).is_some_and(|rr| rr <= n));
+            assert!((r + 1).checked_mul(r + 1).is_none_or(|rr| rr > n));
+        }
+    }
+
+    #[test]
+    fn normalizes_and_masks() {
+        // Left half 50, right half 150, 128 x 128: every valid cell is +-1 sigma -> +-32.
+        let side = 128;
+        let mut src = [0u8; 128 * 128];
+        for r in 0..side {
+            for c in 0..side {
+                src[r * side + c] = if c < side / 2 { 50 } else { 150 };
+            }
+        }
+        let mut mask = [1u8; 128 * 128];
+        mask[..side * 2].fill(0); // first output row invalid
+        let mut out = [0i8; INPUT_LEN];
+        prepare_input(&src, Some(&mask), side, &mut out).unwrap();
+        assert!(out[..INPUT_SIDE].iter().all(|&v| v == 0));
+        assert_eq!(out[INPUT_SIDE], -32);
+        assert_eq!(out[2 * INPUT_SIDE - 1], 32);
+        let flat = [77u8; 128 * 128];
+        assert_eq!(
+            prepare_input(&flat, None, side, &mut out),
+            Err(NnError::FlatInput)
+        );
+        assert_eq!(
+            prepare_input(&src, Some(&[0u8; 128 * 128]), side, &mut out),
+            Err(NnError::TooFewValid)
+        );
+        assert_eq!(
+            prepare_input(&src[..100], None, side, &mut out),
+            Err(NnError::BufferSize)
+        );
+    }
+}

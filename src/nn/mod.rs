@@ -1,0 +1,38 @@
+//! Quantized siamese CNN matcher: int8 kernels (TFLite / CMSIS-NN conventions), the weight
+//! file format, the shipped network and its static arena.
+//!
+//! Conventions: activations NHWC int8, asymmetric per tensor (scale, zero point); weights
+//! int8 symmetric per output channel (zero point 0, -127..=127); biases int32 in units of
+//! `input scale * weight scale`; requantization by a Q0.31 multiplier and a shift with
+//! gemmlowp rounding ([`requant`]). Nothing allocates; scratch is caller-provided and sized
+//! by `*_buffer_size` functions.
+//!
+//! - [`requant`]: fixed-point rescaling;
+//! - [`conv`]: convolution; [`dense`]: fully connected; [`pool`]: max / average pooling;
+//! - [`input`]: raster + mask to normalized int8 input;
+//! - [`weights`]: `.ofw` weight file parsing with CRC-32 validation;
+//! - [`model`]: the shipped network, its arena, cosine scoring.
+
+pub mod conv;
+pub mod dense;
+pub mod input;
+pub mod model;
+pub mod pool;
+pub mod requant;
+pub mod weights;
+
+/// Errors running a kernel or the network.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NnError {
+    /// Kernel, stride, padding and tensor sizes do not agree.
+    BadGeometry,
+    /// A tensor or parameter buffer is shorter than its shape needs.
+    BufferSize,
+    /// The scratch buffer is smaller than the kernel's `*_buffer_size`.
+    ScratchTooSmall,
+    /// Too few valid pixels in the input window to match.
+    TooFewValid,
+    /// The valid pixels have (almost) no contrast: black, saturated or flat frame.
+    FlatInput,
+}
