@@ -319,6 +319,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::field_reassign_with_default)]
     fn rejects_bad_parameters() {
         let mut p = CameraParams {
             hfov_deg: 180.0,

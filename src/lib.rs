@@ -14,6 +14,9 @@
 //! - [`image`]: borrowed 8-bit grayscale image views;
 //! - [`geo`]: georeference of north-up rasters;
 //! - [`camera`]: pinhole camera model of the rover's four views;
+//! - [`reproject`]: integer lookup-table reprojection of the four views to a top-down grid;
+//! - [`matcher`]: L1, L2 and masked NCC scoring of a top-down image against map windows;
+//! - [`localize`]: the study's 441-window search and the coarse-to-fine dense fix;
 //! - [`nn`]: quantized siamese CNN matcher (int8 kernels, weight file, shipped network).
 #![no_std]
 #![deny(unsafe_op_in_unsafe_fn)]
@@ -26,4 +29,7 @@
 pub mod camera;
 pub mod geo;
 pub mod image;
+pub mod localize;
+pub mod matcher;
 pub mod nn;
+pub mod reproject;

@@ -5,5 +5,10 @@
 //! budget. Uses the `orbfix` core as a library; frames and units are those of the core
 //! (`docs/frames.md`).
 
+pub mod dataset;
+pub mod eval;
+pub mod fsutil;
 pub mod nn;
+pub mod render;
+pub mod reproject_ref;
 pub mod world;

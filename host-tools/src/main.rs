@@ -14,6 +14,22 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Render a dataset (views, satellite crops, manifest); see docs/dataset.md.
+    Generate(cmd::generate::Args),
+    /// Render pictures: one location, a map region, or the docs figure.
+    Render(cmd::render::Args),
+    /// Measure speed beside the anchors (e.g. `orbfix bench world`).
+    Bench(cmd::bench::Args),
+    /// Localize a few rover stops of the built-in world and draw them (no files needed).
+    Demo(cmd::demo::Args),
+    /// Localize one rover stop (dataset location or top-down image) in a map.
+    Localize(cmd::localize::Args),
+    /// Evaluate matchers on generated rover stops of the test zone (recall@k, errors, pairs).
+    Eval(cmd::eval::Args),
+    /// Write an orbital map region of the built-in world as MAP.png + MAP.json.
+    Map(cmd::map::Args),
+    /// Time one localization per matcher (441 windows and dense) with operation counts.
+    BenchLocalize(cmd::bench_localize::Args),
     /// Print the terrain elevation (metres) at a world point of the built-in world.
     Elevation {
         /// World seed.
@@ -35,6 +51,14 @@ enum Command {
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
+        Command::Generate(a) => cmd::generate::run(a)?,
+        Command::Render(a) => cmd::render::run(a)?,
+        Command::Bench(a) => cmd::bench::run(a)?,
+        Command::Demo(a) => cmd::demo::run(a)?,
+        Command::Localize(a) => cmd::localize::run(a)?,
+        Command::Eval(a) => cmd::eval::run(a)?,
+        Command::Map(a) => cmd::map::run(a)?,
+        Command::BenchLocalize(a) => cmd::bench_localize::run(a)?,
         Command::Elevation { seed, x, y } => {
             let world = orbfix_host::world::World::new(seed);
             println!("{:.3}", world.height_m(x, y));

@@ -1,0 +1,183 @@
+//! `orbfix eval`: generated queries in the test zone through the whole pipeline (render,
+//! reproject, localize), one JSON report per matcher, figures on request.
+
+use anyhow::Context;
+use orbfix::localize::LocalizeConfig;
+use orbfix_host::eval::pipeline::{Condition, PipelineOptions};
+use orbfix_host::eval::run::{run_eval, EvalConfig, EvalOutput};
+use orbfix_host::eval::{
+    figures, overlay, parse_matchers, save_png_atomic, write_atomic, MATCHERS,
+};
+use std::path::{Path, PathBuf};
+
+/// Evaluate matchers on generated rover stops of the test zone (no dataset needed).
+#[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Example: orbfix eval --seed 1 --queries 30 --matcher ncc,l1,l2 --json out/eval.json --figures out/fig"
+)]
+pub struct Args {
+    /// World seed (also seeds the queries).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Number of queries (rover stops).
+    #[arg(long, default_value_t = 30)]
+    pub queries: usize,
+    /// Matcher, or a comma-separated list sharing the renders (ncc, ncc-dist, l1, l2).
+    #[arg(long, default_value = "ncc")]
+    pub matcher: String,
+    /// Lighting: same-sun (the study's: 30 deg elevation, azimuth 135 deg) or cross-sun
+    /// (map and rover suns drawn independently: elevation 20-60 deg, azimuths 60-180 deg apart).
+    #[arg(long, value_enum, default_value_t = Condition::SameSun)]
+    pub condition: Condition,
+    /// Report file (JSON): one object for one matcher, an array for several.
+    #[arg(long)]
+    pub json: PathBuf,
+    /// Folder for figures (score distributions, ROC, error CDF, example localizations).
+    #[arg(long)]
+    pub figures: Option<PathBuf>,
+    /// Coarse factor of the dense pass (8 at 0.25 m/px = 2 m/px).
+    #[arg(long, default_value_t = 8)]
+    pub coarse_factor: usize,
+    /// Fine factor of the refinement (2 = 0.5 m/px).
+    #[arg(long, default_value_t = 2)]
+    pub fine_factor: usize,
+    /// Example localizations drawn into --figures.
+    #[arg(long, default_value_t = 3)]
+    pub examples: usize,
+    /// Diagnostic: a world with zero relief and the same albedo.
+    #[arg(long)]
+    pub flat_world: bool,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let matchers = parse_matchers(&a.matcher)
+        .with_context(|| format!("--matcher (available: {})", MATCHERS.join(", ")))?;
+    let cfg = EvalConfig {
+        seed: a.seed,
+        queries: a.queries,
+        condition: a.condition,
+        matchers,
+        localize: LocalizeConfig {
+            coarse_factor: a.coarse_factor,
+            fine_factor: a.fine_factor,
+            ..LocalizeConfig::default()
+        },
+        stride_px: 50,
+        pipeline: PipelineOptions::default(),
+        keep_examples: if a.figures.is_some() { a.examples } else { 0 },
+        flat_world: a.flat_world,
+    };
+    let out = run_eval(&cfg, !a.quiet)?;
+    print_table(&out);
+    let json = if out.reports.len() == 1 {
+        serde_json::to_string_pretty(&out.reports[0])?
+    } else {
+        serde_json::to_string_pretty(&out.reports)?
+    };
+    write_atomic(&a.json, json.as_bytes())?;
+    println!("report: {}", a.json.display());
+    if let Some(dir) = &a.figures {
+        write_figures(&out, dir)?;
+        println!("figures: {}", dir.display());
+    }
+    Ok(())
+}
+
+/// One line per matcher.
+pub fn print_table(out: &EvalOutput) {
+    println!(
+        "{:<9} {:<9} {:>4} {:>6} {:>6} {:>7} {:>9} {:>8} {:>6} {:>6} {:>7}",
+        "matcher",
+        "condition",
+        "n",
+        "R@1",
+        "R@5",
+        "R@10",
+        "median m",
+        "p95 m",
+        "AUC",
+        "err",
+        "border"
+    );
+    for r in &out.reports {
+        println!(
+            "{:<9} {:<9} {:>4} {:>6.3} {:>6.3} {:>7.3} {:>9.2} {:>8.2} {:>6.3} {:>6.3} {:>7}",
+            r.matcher,
+            r.condition,
+            r.queries,
+            r.recall_at["1"],
+            r.recall_at["5"],
+            r.recall_at["10"],
+            r.median_error_m,
+            r.p95_error_m,
+            r.pairs.auc,
+            r.pairs.error_rate,
+            r.border_rejections
+        );
+    }
+}
+
+/// Score histograms, ROC, error CDF and example localizations.
+pub fn write_figures(out: &EvalOutput, dir: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let mut rocs = Vec::new();
+    let mut cdfs = Vec::new();
+    for r in &out.reports {
+        let pos: Vec<f64> = r.per_query.iter().map(|q| q.match_score).collect();
+        let neg: Vec<f64> = r.per_query.iter().map(|q| q.nonmatch_score).collect();
+        figures::score_histograms(
+            &dir.join(format!("scores_{}_{}.svg", r.matcher, r.condition)),
+            &r.matcher,
+            &pos,
+            &neg,
+        )?;
+        rocs.push((r.matcher.clone(), pos, neg));
+        cdfs.push((
+            r.matcher.clone(),
+            r.per_query.iter().map(|q| q.error_m).collect(),
+        ));
+    }
+    let cond = out
+        .reports
+        .first()
+        .map(|r| r.condition.as_str())
+        .unwrap_or("eval");
+    figures::roc_curves(&dir.join(format!("roc_{cond}.svg")), &rocs)?;
+    figures::error_cdfs(&dir.join(format!("error_cdf_{cond}.svg")), &cdfs)?;
+    for ex in &out.examples {
+        let id = ex.query.id;
+        save_png_atomic(
+            &overlay::top_down_picture(&ex.top),
+            &dir.join(format!("example_{cond}_{id:03}_topdown.png")),
+        )?;
+        // The map under the truth, the same size as the top-down image, for comparison.
+        let (c, r) = ex.map.geo.to_pixel(ex.query.x_m as f32, ex.query.y_m as f32);
+        let n = ex.top.n;
+        let c0 = (c.round() as i64 - n as i64 / 2).clamp(0, (ex.map.width - n) as i64) as u32;
+        let r0 = (r.round() as i64 - n as i64 / 2).clamp(0, (ex.map.height - n) as i64) as u32;
+        if let Some(full) =
+            image::GrayImage::from_raw(ex.map.width as u32, ex.map.height as u32, ex.map.image.clone())
+        {
+            let crop = image::imageops::crop_imm(&full, c0, r0, n as u32, n as u32).to_image();
+            save_png_atomic(&crop, &dir.join(format!("example_{cond}_{id:03}_map_at_truth.png")))?;
+        }
+        for (r, loc) in out.reports.iter().zip(&ex.locs) {
+            let pic = overlay::map_picture(
+                &ex.map,
+                loc,
+                ex.top.n,
+                Some((ex.query.x_m, ex.query.y_m)),
+                (ex.query.prior_x_m, ex.query.prior_y_m),
+                2,
+            );
+            save_png_atomic(
+                &pic,
+                &dir.join(format!("example_{cond}_{id:03}_{}.png", r.matcher)),
+            )?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,465 @@
+//! Localization on the host: the matcher registry, the core localizer run on owned images,
+//! generated evaluation queries in the test zone, metrics, reports, figures and operator
+//! pictures.
+//!
+//! The pipeline of one query (`pipeline`): render the rover's four views at the truth,
+//! reproject them (core LUT) to a 200 x 200 top-down image at 0.25 m/px, render a 300 x 300 m
+//! orbital map region centred on a prior offset from the truth, then localize (core): the
+//! study's 441-window search and the coarse-to-fine dense fix.
+
+pub mod figures;
+pub mod metrics;
+pub mod overlay;
+pub mod pipeline;
+pub mod run;
+
+use anyhow::{bail, Context};
+use orbfix::geo::GeoRef;
+use orbfix::image::{ImageView, ImageViewMut};
+use orbfix::localize::{self, Fix, LocalizeConfig};
+use orbfix::matcher::{distance_weights, l1::L1, l2::L2, ncc::Ncc, Grid, Matcher, OpCounts};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Names of the matchers this build provides, best first for `demo`. The CNN matchers
+/// (`cnn`, `cnn-f32`) plug in here behind the same [`Matcher`] trait.
+pub const MATCHERS: &[&str] = &["ncc", "ncc-dist", "l1", "l2"];
+
+/// The matcher `demo` uses: the best one available.
+pub fn best_matcher() -> &'static str {
+    MATCHERS[0]
+}
+
+/// A matcher with its host-side options.
+pub struct MatcherSpec {
+    /// Name as given on the command line.
+    pub name: String,
+    /// The core matcher.
+    pub matcher: Box<dyn Matcher + Send + Sync>,
+    /// Weight the mask by 1 / distance from the rover (MARSAUTOLOCO's option), radius of
+    /// full weight in pixels; `None` = uniform weights.
+    pub distance_weighting_px: Option<u32>,
+    /// Masked high-pass of top-down image and map before matching: box radius, metres.
+    pub highpass_m: Option<f32>,
+    /// Ignore top-down pixels farther than this from the rover, metres.
+    pub max_range_m: Option<f32>,
+}
+
+/// Looks a matcher up by name: a base (`l1`, `l2`, `ncc`) followed by options, each
+/// `-dist` (1 / distance weights, full weight within 5 m), `-hpN` (high-pass, box radius N
+/// metres), `-rN` (use the top-down image within N metres of the rover only); e.g.
+/// `ncc-hp4-r20`. [`MATCHERS`] lists the ones reported.
+pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
+    let mut parts = name.split('-');
+    let base = parts.next().unwrap_or("");
+    let matcher: Box<dyn Matcher + Send + Sync> = match base {
+        "l1" => Box::new(L1),
+        "l2" => Box::new(L2),
+        "ncc" => Box::new(Ncc::default()),
+        _ => bail!(
+            "unknown matcher '{name}': choose one of {} (options: -dist, -hpN, -rN)",
+            MATCHERS.join(", ")
+        ),
+    };
+    let mut spec = MatcherSpec {
+        name: name.to_string(),
+        matcher,
+        distance_weighting_px: None,
+        highpass_m: None,
+        max_range_m: None,
+    };
+    for p in parts {
+        let num = |pre: &str| -> anyhow::Result<f32> {
+            let v: f32 = p[pre.len()..].parse().with_context(|| {
+                format!("matcher option '{p}' of '{name}': expected {pre}<metres>")
+            })?;
+            anyhow::ensure!(
+                v.is_finite() && v > 0.0,
+                "matcher option '{p}' must be positive"
+            );
+            Ok(v)
+        };
+        if p == "dist" {
+            spec.distance_weighting_px = Some(20);
+        } else if p.starts_with("hp") {
+            spec.highpass_m = Some(num("hp")?);
+        } else if p.starts_with('r') {
+            spec.max_range_m = Some(num("r")?);
+        } else {
+            bail!("unknown option '{p}' in matcher '{name}' (options: -dist, -hpN, -rN)");
+        }
+    }
+    Ok(spec)
+}
+
+/// Parses a comma-separated matcher list (`l1,l2,ncc`), checking every name.
+pub fn parse_matchers(list: &str) -> anyhow::Result<Vec<String>> {
+    let names: Vec<String> = list
+        .split(',')
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .collect();
+    if names.is_empty() {
+        bail!("no matcher given: choose from {}", MATCHERS.join(", "));
+    }
+    for n in &names {
+        matcher_by_name(n)?;
+    }
+    Ok(names)
+}
+
+/// A reprojected top-down image centred on the rover, north-up.
+#[derive(Clone, Debug)]
+pub struct TopDown {
+    /// Gray levels, `n * n`, row-major.
+    pub image: Vec<u8>,
+    /// Validity (0 = no data, else valid), `n * n`.
+    pub mask: Vec<u8>,
+    /// Side, pixels.
+    pub n: usize,
+    /// Metres per pixel.
+    pub m_per_px: f32,
+}
+
+/// A north-up orbital map region with its georeference.
+#[derive(Clone, Debug)]
+pub struct MapRegion {
+    /// Gray levels, row-major.
+    pub image: Vec<u8>,
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// North-west corner and metres per pixel.
+    pub geo: GeoRef,
+}
+
+impl MapRegion {
+    /// A core view of the map.
+    pub fn view(&self) -> anyhow::Result<ImageView<'_>> {
+        ImageView::new(&self.image, self.width, self.height)
+            .map_err(|e| anyhow::anyhow!("map image does not match its size: {e:?}"))
+    }
+}
+
+/// Everything one localization produced.
+#[derive(Clone, Debug)]
+pub struct Localization {
+    /// The coarse-to-fine fix.
+    pub fix: Fix,
+    /// Coarse response (row-major over `fix.coarse_grid`).
+    pub coarse_response: Vec<f32>,
+    /// The study's window scores (row-major over `window_grid`).
+    pub window_scores: Vec<f32>,
+    /// The window grid (21 x 21 for 50 m windows, 12.5 m stride, 300 m map).
+    pub window_grid: Grid,
+    /// Operations of the window search.
+    pub window_ops: OpCounts,
+    /// Wall time of the dense coarse-to-fine fix, seconds.
+    pub dense_s: f64,
+    /// Wall time of the window search, seconds.
+    pub windows_s: f64,
+}
+
+/// The weights a matcher sees for a top-down mask.
+pub fn weights_for(spec: &MatcherSpec, top: &TopDown) -> anyhow::Result<Vec<u8>> {
+    let mut mask = top.mask.clone();
+    if let Some(r) = spec.max_range_m {
+        let r_px = (r / top.m_per_px) as f64;
+        let c = top.n as f64 / 2.0;
+        for (i, m) in mask.iter_mut().enumerate() {
+            let (x, y) = ((i % top.n) as f64 + 0.5 - c, (i / top.n) as f64 + 0.5 - c);
+            if x * x + y * y > r_px * r_px {
+                *m = 0;
+            }
+        }
+    }
+    let top = &TopDown {
+        mask,
+        image: Vec::new(),
+        ..*top
+    };
+    match spec.distance_weighting_px {
+        None => Ok(top.mask.clone()),
+        Some(r0) => {
+            let mut out = vec![0u8; top.n * top.n];
+            let m = ImageView::new(&top.mask, top.n, top.n)
+                .map_err(|e| anyhow::anyhow!("bad top-down mask: {e:?}"))?;
+            let mut o = ImageViewMut::new(&mut out, top.n, top.n)
+                .map_err(|e| anyhow::anyhow!("bad weight buffer: {e:?}"))?;
+            distance_weights(&m, &mut o, r0)
+                .map_err(|e| anyhow::anyhow!("distance weighting failed: {e:?}"))?;
+            Ok(out)
+        }
+    }
+}
+
+/// The images a matcher sees: top-down image, its weights and the map, pre-processed.
+pub struct Prepared {
+    /// Top-down image (high-passed if the matcher asks).
+    pub top: Vec<u8>,
+    /// Weights (mask, range cut, distance weighting).
+    pub weights: Vec<u8>,
+    /// Map (high-passed if the matcher asks).
+    pub map: Vec<u8>,
+}
+
+fn highpassed(
+    img: &[u8],
+    mask: Option<&[u8]>,
+    w: usize,
+    h: usize,
+    radius: usize,
+) -> anyhow::Result<Vec<u8>> {
+    let src = ImageView::new(img, w, h).map_err(|e| anyhow::anyhow!("bad image: {e:?}"))?;
+    let m = match mask {
+        Some(m) => Some(ImageView::new(m, w, h).map_err(|e| anyhow::anyhow!("bad mask: {e:?}"))?),
+        None => None,
+    };
+    let mut out = vec![0u8; w * h];
+    let mut o = ImageViewMut::new(&mut out, w, h).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let mut scratch = vec![0u32; orbfix::matcher::prep::highpass_buffer_len(w)];
+    orbfix::matcher::prep::highpass(&src, m.as_ref(), radius, &mut o, &mut scratch)
+        .map_err(|e| anyhow::anyhow!("high-pass failed: {e:?}"))?;
+    Ok(out)
+}
+
+/// Pre-processes a query's images for a matcher.
+pub fn prepare(spec: &MatcherSpec, top: &TopDown, map: &MapRegion) -> anyhow::Result<Prepared> {
+    let weights = weights_for(spec, top)?;
+    match spec.highpass_m {
+        None => Ok(Prepared {
+            top: top.image.clone(),
+            weights,
+            map: map.image.clone(),
+        }),
+        Some(r_m) => {
+            let r = ((r_m / top.m_per_px).round() as usize).max(1);
+            Ok(Prepared {
+                top: highpassed(&top.image, Some(&weights), top.n, top.n, r)?,
+                map: highpassed(&map.image, None, map.width, map.height, r)?,
+                weights,
+            })
+        }
+    }
+}
+
+/// Runs the core on owned images: the study's window search (`stride_px` between windows)
+/// and the coarse-to-fine fix.
+pub fn localize_top_down(
+    spec: &MatcherSpec,
+    top: &TopDown,
+    map: &MapRegion,
+    prior: (f64, f64),
+    cfg: &LocalizeConfig,
+    stride_px: usize,
+) -> anyhow::Result<Localization> {
+    if top.image.len() != top.n * top.n || top.mask.len() != top.n * top.n {
+        bail!(
+            "top-down image is {} bytes and mask {} bytes, expected {} x {}",
+            top.image.len(),
+            top.mask.len(),
+            top.n,
+            top.n
+        );
+    }
+    let p = prepare(spec, top, map)?;
+    let t = ImageView::new(&p.top, top.n, top.n)
+        .map_err(|e| anyhow::anyhow!("bad top-down image: {e:?}"))?;
+    let w = ImageView::new(&p.weights, top.n, top.n)
+        .map_err(|e| anyhow::anyhow!("bad top-down mask: {e:?}"))?;
+    let m = ImageView::new(&p.map, map.width, map.height)
+        .map_err(|e| anyhow::anyhow!("map image does not match its size: {e:?}"))?;
+    let (nb, nf) = localize::buffer_sizes(top.n, top.n, map.width, map.height, cfg)
+        .map_err(|e| anyhow::anyhow!("localization set-up rejected: {e:?}"))?;
+    let mut bytes = vec![0u8; nb];
+    let mut floats = vec![0f32; nf];
+    let t0 = Instant::now();
+    let fix = localize::localize(
+        spec.matcher.as_ref(),
+        &t,
+        &w,
+        top.m_per_px,
+        &m,
+        &map.geo,
+        prior.0 as f32,
+        prior.1 as f32,
+        cfg,
+        &mut bytes,
+        &mut floats,
+    )
+    .map_err(|e| anyhow::anyhow!("localization failed: {}", describe(&e)))?;
+    let dense_s = t0.elapsed().as_secs_f64();
+    let coarse_response = floats[..fix.coarse_grid.len()].to_vec();
+    let grid = Grid::new(top.n, top.n, map.width, map.height, stride_px)
+        .map_err(|e| anyhow::anyhow!("window grid: {e:?}"))?;
+    let mut window_scores = vec![0f32; grid.len()];
+    let mut window_ops = OpCounts::default();
+    let t1 = Instant::now();
+    let window_grid = localize::window_search(
+        spec.matcher.as_ref(),
+        &t,
+        &w,
+        &m,
+        stride_px,
+        &mut window_scores,
+        &mut window_ops,
+    )
+    .map_err(|e| anyhow::anyhow!("window search failed: {}", describe(&e)))?;
+    let windows_s = t1.elapsed().as_secs_f64();
+    Ok(Localization {
+        fix,
+        coarse_response,
+        window_scores,
+        window_grid,
+        window_ops,
+        dense_s,
+        windows_s,
+    })
+}
+
+/// A sentence for a core localization error.
+pub fn describe(e: &orbfix::localize::LocalizeError) -> String {
+    use orbfix::localize::LocalizeError as E;
+    use orbfix::matcher::MatchError as M;
+    match e {
+        E::Match(M::NoValidPixels) => {
+            "the top-down image is all \"no data\" (no camera saw the ground): check the frames".into()
+        }
+        E::Match(M::FeaturelessTemplate) => {
+            "the top-down image has no contrast (all valid pixels equal): check the frames".into()
+        }
+        E::Match(m) => format!("matcher error {m:?}"),
+        E::ResolutionMismatch {
+            map_m_per_px,
+            top_m_per_px,
+        } => format!(
+            "map is {map_m_per_px} m/px but the top-down image is {top_m_per_px} m/px: resample the map"
+        ),
+        E::PriorOutsideMap => "the prior position lies outside the map: pass a map region around the prior".into(),
+        E::TooLittleCoverage { permille } => format!(
+            "only {:.1} % of the top-down image has data (too little to match)",
+            *permille as f64 / 10.0
+        ),
+        E::BadConfig => "bad localization configuration (template size must be a multiple of the coarse factor, coarse a multiple of fine)".into(),
+        E::ScratchTooSmall => "scratch buffers too small".into(),
+    }
+}
+
+/// Map georeference sidecar (`MAP.json` next to `MAP.png`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct MapMeta {
+    /// World east of the map's west edge, metres.
+    pub origin_x_m: f64,
+    /// World north of the map's north edge, metres.
+    pub origin_y_m: f64,
+    /// Metres per pixel.
+    pub m_per_px: f64,
+    /// Width, pixels (checked against the PNG).
+    pub width_px: usize,
+    /// Height, pixels (checked against the PNG).
+    pub height_px: usize,
+    /// World seed the map was rendered from, if any.
+    #[serde(default)]
+    pub world_seed: Option<u64>,
+    /// Sun elevation and azimuth of the render, degrees, if any.
+    #[serde(default)]
+    pub sun_deg: Option<(f64, f64)>,
+}
+
+/// Loads `MAP.png` + `MAP.json`, checking the georeference and sizes.
+pub fn load_map(png: &std::path::Path, meta: &std::path::Path) -> anyhow::Result<MapRegion> {
+    let text = std::fs::read_to_string(meta).with_context(|| {
+        format!(
+            "cannot read the map georeference {} (write one with `orbfix map`)",
+            meta.display()
+        )
+    })?;
+    let m: MapMeta = serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{} is not a map georeference (needs origin_x_m, origin_y_m, m_per_px, width_px, height_px)",
+            meta.display()
+        )
+    })?;
+    let geo = GeoRef::new(m.origin_x_m as f32, m.origin_y_m as f32, m.m_per_px as f32)
+        .map_err(|e| anyhow::anyhow!("{}: bad georeference {e:?}", meta.display()))?;
+    let img = image::open(png)
+        .with_context(|| format!("cannot read the map image {}", png.display()))?
+        .to_luma8();
+    if img.width() as usize != m.width_px || img.height() as usize != m.height_px {
+        bail!(
+            "{} is {} x {} px but {} says {} x {}",
+            png.display(),
+            img.width(),
+            img.height(),
+            meta.display(),
+            m.width_px,
+            m.height_px
+        );
+    }
+    Ok(MapRegion {
+        width: img.width() as usize,
+        height: img.height() as usize,
+        image: img.into_raw(),
+        geo,
+    })
+}
+
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let dir = path.parent().unwrap_or(std::path::Path::new("."));
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path)
+        .with_context(|| format!("cannot move {} to {}", tmp.display(), path.display()))?;
+    Ok(())
+}
+
+/// Saves a gray or RGB image as PNG atomically.
+pub fn save_png_atomic<P, C>(
+    img: &image::ImageBuffer<P, C>,
+    path: &std::path::Path,
+) -> anyhow::Result<()>
+where
+    P: image::PixelWithColorType,
+    [P::Subpixel]: image::EncodableLayout,
+    C: std::ops::Deref<Target = [P::Subpixel]>,
+{
+    let mut buf = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut buf, image::ImageFormat::Png)
+        .with_context(|| format!("cannot encode {}", path.display()))?;
+    write_atomic(path, buf.get_ref())
+}
+
+/// The JSON description of a localization (fix, confidence, candidates, operation counts).
+pub fn describe_fix(loc: &Localization) -> serde_json::Value {
+    let f = &loc.fix;
+    let mut order: Vec<usize> = (0..loc.window_scores.len()).collect();
+    order.sort_by(|&a, &b| loc.window_scores[b].total_cmp(&loc.window_scores[a]));
+    serde_json::json!({
+        "fix_m": [f.x_m, f.y_m],
+        "score": f.score,
+        "confidence": f.confidence,
+        "peak_score": f.peak_score,
+        "second_score": f.second_score,
+        "on_border": f.on_border,
+        "candidates": f.candidates.iter().map(|c| serde_json::json!({
+            "x_m": c.x_m, "y_m": c.y_m, "score": c.score, "refined": c.refined
+        })).collect::<Vec<_>>(),
+        "best_windows": order.iter().take(10).map(|&i| serde_json::json!({
+            "index": i, "col": i % loc.window_grid.cols, "row": i / loc.window_grid.cols,
+            "score": loc.window_scores[i]
+        })).collect::<Vec<_>>(),
+        "ops": {"coarse": ops_json(&f.ops_coarse), "fine": ops_json(&f.ops_fine), "windows": ops_json(&loc.window_ops)},
+        "time_s": {"dense": loc.dense_s, "windows": loc.windows_s},
+    })
+}
+
+fn ops_json(o: &OpCounts) -> serde_json::Value {
+    serde_json::json!({"macs": o.macs, "windows": o.windows, "downsample_px": o.downsample_px})
+}

@@ -1,0 +1,241 @@
+//! The whole pipeline on the built-in world: render the rover's four views, reproject them
+//! with the core's LUT into the top-down image, render the orbital map region, and the
+//! generated evaluation queries of the test zone.
+
+use super::{MapRegion, TopDown};
+use crate::render::{self, RenderOptions, Sun};
+use crate::world::{zones, World};
+use anyhow::Context;
+use orbfix::image::ImageView;
+use orbfix::reproject::{self, Cell, GridSpec, Tap};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+/// Pipeline settings shared by every query.
+#[derive(Clone, Debug)]
+pub struct PipelineOptions {
+    /// Renderer options (camera rig, photometry, exposure, noise).
+    pub render: RenderOptions,
+    /// Top-down grid (200 x 200 at 0.25 m/px = 50 m by default).
+    pub grid: GridSpec,
+    /// Side of the orbital map region, pixels at `grid.m_per_px` (1200 = 300 m).
+    pub map_px: usize,
+}
+
+impl Default for PipelineOptions {
+    fn default() -> Self {
+        Self {
+            render: RenderOptions::default(),
+            grid: GridSpec::default(),
+            map_px: 1200,
+        }
+    }
+}
+
+/// Renders the four views at a rover stop and reprojects them to a top-down image.
+pub fn observe(
+    world: &World,
+    x_m: f64,
+    y_m: f64,
+    heading_deg: f64,
+    sun: Sun,
+    opts: &PipelineOptions,
+) -> anyhow::Result<TopDown> {
+    let pose = render::ground_pose(world, x_m, y_m, heading_deg);
+    let views = render::render_views(world, &pose, sun, &opts.render)
+        .with_context(|| format!("rendering the views at ({x_m:.1}, {y_m:.1}) m"))?;
+    reproject_views(&views, &opts.render, &pose, &opts.grid)
+}
+
+/// Reprojects four views (front, right, rear, left) to a top-down image with the core LUT.
+pub fn reproject_views(
+    views: &[image::GrayImage; 4],
+    render_opts: &RenderOptions,
+    pose: &orbfix::camera::RoverPose,
+    grid: &GridSpec,
+) -> anyhow::Result<TopDown> {
+    let params = render_opts.camera_params();
+    let mut frames: [Option<ImageView<'_>>; 4] = [None; 4];
+    for (f, v) in frames.iter_mut().zip(views) {
+        *f = Some(
+            ImageView::new(v.as_raw(), v.width() as usize, v.height() as usize)
+                .map_err(|e| anyhow::anyhow!("bad view image: {e:?}"))?,
+        );
+    }
+    let n = grid.n;
+    let mut cells = vec![Cell::EMPTY; reproject::table_len(n)];
+    let mut extra = vec![Tap::EMPTY; reproject::table_len(n) / 4 + 1];
+    let mut out = vec![0u8; n * n];
+    let mut mask = vec![0u8; n * n];
+    reproject::reproject_top_down(
+        &frames, &params, pose, grid, &mut cells, &mut extra, &mut out, &mut mask,
+    )
+    .map_err(|e| anyhow::anyhow!("reprojection failed: {e:?}"))?;
+    Ok(TopDown {
+        image: out,
+        mask,
+        n,
+        m_per_px: grid.m_per_px,
+    })
+}
+
+/// Renders the `size_px x size_px` orbital map region centred on `(cx, cy)` metres.
+pub fn map_region(
+    world: &World,
+    cx: f64,
+    cy: f64,
+    size_px: usize,
+    m_per_px: f64,
+    sun: Sun,
+    opts: &RenderOptions,
+) -> anyhow::Result<MapRegion> {
+    let (img, geo) =
+        render::render_satellite_crop(world, cx, cy, size_px as u32, m_per_px, sun, opts)
+            .with_context(|| format!("rendering the map around ({cx:.1}, {cy:.1}) m"))?;
+    Ok(MapRegion {
+        width: img.width() as usize,
+        height: img.height() as usize,
+        image: img.into_raw(),
+        geo,
+    })
+}
+
+/// Lighting of an evaluation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Condition {
+    /// The study's setting: map and rover under one sun, 30 deg elevation, azimuth 135 deg.
+    SameSun,
+    /// Map sun: elevation 20-60 deg, azimuth 0-360 deg; rover sun: elevation 20-60 deg,
+    /// azimuth 60-180 deg away from the map's (either side), drawn per query.
+    CrossSun,
+}
+
+impl Condition {
+    /// Its name in reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Condition::SameSun => "same-sun",
+            Condition::CrossSun => "cross-sun",
+        }
+    }
+}
+
+/// One generated query: a rover stop in the test zone and its prior.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Query {
+    /// Query number.
+    pub id: usize,
+    /// True rover east, metres.
+    pub x_m: f64,
+    /// True rover north, metres.
+    pub y_m: f64,
+    /// Heading, degrees clockwise from north.
+    pub heading_deg: f64,
+    /// Prior east (centre of the map region), metres.
+    pub prior_x_m: f64,
+    /// Prior north, metres.
+    pub prior_y_m: f64,
+    /// Sun of the rover's views.
+    pub sun_rover: Sun,
+    /// Sun of the orbital map.
+    pub sun_map: Sun,
+}
+
+/// Largest prior offset from the truth along each axis, metres (the 441 window centres span
+/// +-125 m, so the truth always lies inside the searched region but rarely at its centre).
+pub const PRIOR_OFFSET_M: f64 = 100.0;
+
+/// `n` queries of `seed` in the test zone (truth at least 150 m inside the zone).
+pub fn make_queries(seed: u64, n: usize, condition: Condition) -> Vec<Query> {
+    let z = zones::zone(zones::Split::Test);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6c6f_6361_6c69_7a65);
+    let margin = 150.0;
+    (0..n)
+        .map(|id| {
+            let x_m = rng.random_range(z.x_min_m + margin..z.x_max_m - margin);
+            let y_m = rng.random_range(z.y_min_m + margin..z.y_max_m - margin);
+            let heading_deg = rng.random_range(0.0..360.0);
+            let prior_x_m = x_m + rng.random_range(-PRIOR_OFFSET_M..PRIOR_OFFSET_M);
+            let prior_y_m = y_m + rng.random_range(-PRIOR_OFFSET_M..PRIOR_OFFSET_M);
+            let (sun_rover, sun_map) = match condition {
+                Condition::SameSun => (Sun::default(), Sun::default()),
+                Condition::CrossSun => {
+                    let map_az: f64 = rng.random_range(0.0..360.0);
+                    let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                    let rov_az = (map_az + sign * rng.random_range(60.0..180.0)).rem_euclid(360.0);
+                    (
+                        Sun {
+                            elevation_deg: rng.random_range(20.0..60.0),
+                            azimuth_deg: rov_az,
+                        },
+                        Sun {
+                            elevation_deg: rng.random_range(20.0..60.0),
+                            azimuth_deg: map_az,
+                        },
+                    )
+                }
+            };
+            Query {
+                id,
+                x_m,
+                y_m,
+                heading_deg,
+                prior_x_m,
+                prior_y_m,
+                sun_rover,
+                sun_map,
+            }
+        })
+        .collect()
+}
+
+/// Renders the top-down image and the map region of a query.
+pub fn render_query(
+    world: &World,
+    q: &Query,
+    opts: &PipelineOptions,
+) -> anyhow::Result<(TopDown, MapRegion)> {
+    let top = observe(world, q.x_m, q.y_m, q.heading_deg, q.sun_rover, opts)?;
+    let map = map_region(
+        world,
+        q.prior_x_m,
+        q.prior_y_m,
+        opts.map_px,
+        opts.grid.m_per_px as f64,
+        q.sun_map,
+        &opts.render,
+    )?;
+    Ok((top, map))
+}
+
+/// The top-down image of a dataset location (its views reprojected with the core LUT at the
+/// default 200 x 200 grid, 0.25 m/px) and its true position `(x, y)` metres.
+pub fn dataset_top_down(
+    dir: &std::path::Path,
+    id: &str,
+) -> anyhow::Result<(TopDown, Option<(f64, f64)>)> {
+    let ds = crate::dataset::Dataset::open(dir)?;
+    let row = ds
+        .rows
+        .iter()
+        .find(|r| r.id == id || r.index.to_string() == id)
+        .with_context(|| {
+            format!(
+                "location '{id}' is not in {} ({} locations, ids like '{}')",
+                dir.display(),
+                ds.rows.len(),
+                ds.rows.first().map(|r| r.id.as_str()).unwrap_or("?")
+            )
+        })?;
+    let views = ds.load_views(row)?;
+    let pose = orbfix::camera::RoverPose::level(
+        row.x_m as f32,
+        row.y_m as f32,
+        row.ground_z_m as f32,
+        row.yaw_deg as f32,
+    );
+    let top = reproject_views(&views, &ds.info.config.render, &pose, &GridSpec::default())?;
+    Ok((top, Some((row.x_m, row.y_m))))
+}

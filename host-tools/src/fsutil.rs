@@ -1,0 +1,112 @@
+//! Atomic file writes and deterministic PNG encoding.
+
+use anyhow::{bail, Context};
+use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+use image::{ExtendedColorType, GrayImage, ImageEncoder};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same folder, fsync, rename.
+/// A reader never sees a partial file; an interrupted write leaves at most a `.tmp` file.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .with_context(|| format!("{} has no file name", path.display()))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".{}.tmp", std::process::id()));
+    let tmp: PathBuf = dir.join(tmp_name);
+    let res = (|| -> anyhow::Result<()> {
+        let mut f = std::fs::File::create(&tmp).with_context(|| {
+            format!("cannot create {} (is the folder writable?)", tmp.display())
+        })?;
+        f.write_all(bytes)
+            .with_context(|| format!("cannot write {} (disk full?)", tmp.display()))?;
+        f.sync_all()
+            .with_context(|| format!("cannot sync {}", tmp.display()))?;
+        std::fs::rename(&tmp, path)
+            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
+        Ok(())
+    })();
+    if res.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    res
+}
+
+/// PNG bytes of an 8-bit gray image, with fixed encoder settings (deterministic).
+pub fn png_gray8(img: &GrayImage) -> anyhow::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
+        .write_image(
+            img.as_raw(),
+            img.width(),
+            img.height(),
+            ExtendedColorType::L8,
+        )
+        .context("encoding PNG")?;
+    Ok(out)
+}
+
+/// PNG bytes of a 16-bit gray raster (row-major values), fixed settings.
+pub fn png_gray16(w: u32, h: u32, values: &[u16]) -> anyhow::Result<Vec<u8>> {
+    if values.len() != w as usize * h as usize {
+        bail!(
+            "16-bit raster has {} values, expected {}x{}",
+            values.len(),
+            w,
+            h
+        );
+    }
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
+    let mut out = Vec::new();
+    PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
+        .write_image(&bytes, w, h, ExtendedColorType::L16)
+        .context("encoding 16-bit PNG")?;
+    Ok(out)
+}
+
+/// Writes an 8-bit gray PNG atomically.
+pub fn write_png(path: &Path, img: &GrayImage) -> anyhow::Result<()> {
+    write_atomic(path, &png_gray8(img)?)
+}
+
+/// Reads an 8-bit gray PNG and checks its size (`None`: any size). Errors name the file and
+/// say whether it is missing, corrupt/truncated, of the wrong kind or the wrong size.
+pub fn read_gray_png(path: &Path, size: Option<(u32, u32)>) -> anyhow::Result<GrayImage> {
+    let bytes = std::fs::read(path)
+        .with_context(|| format!("cannot read {} (missing?)", path.display()))?;
+    let img = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png).with_context(
+        || {
+            format!(
+                "{} is not a valid PNG (corrupt or truncated?)",
+                path.display()
+            )
+        },
+    )?;
+    if img.color() != image::ColorType::L8 {
+        bail!(
+            "{} is {:?}, expected 8-bit gray",
+            path.display(),
+            img.color()
+        );
+    }
+    let img = img.to_luma8();
+    if let Some((w, h)) = size {
+        if img.dimensions() != (w, h) {
+            bail!(
+                "{} is {}x{}, expected {}x{}",
+                path.display(),
+                img.width(),
+                img.height(),
+                w,
+                h
+            );
+        }
+    }
+    Ok(img)
+}

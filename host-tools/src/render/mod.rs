@@ -1,0 +1,432 @@
+//! Renderer of the lunar world: the rover's four pinhole ground views (with range images
+//! and point clouds) and orthographic north-up satellite images, under one lighting model.
+//!
+//! Lighting (the same function for ground and orbit, `docs/rendering.md`):
+//! `radiance = exposure * albedo(x, y) * (lit(x, y) * photometric(n, sun, view) + ambient)`,
+//! gray = `round(255 * clamp(radiance, 0, 1) ^ (1 / gamma))`, sky = 0. `lit` is a cast-shadow
+//! mask computed by a horizon sweep along the sun azimuth ([`shadow`]).
+//!
+//! Ground views rasterize the height field as a triangle mesh of nested square grids
+//! (0.1 m near the rover, doubling each ring out to `max_range_m`) with a z-buffer
+//! ([`raster`]); the geometry is that of [`orbfix::camera::Camera`].
+
+pub mod ortho;
+pub mod ply;
+pub mod raster;
+pub mod shadow;
+pub mod terrain;
+
+use crate::world::World;
+use image::GrayImage;
+use orbfix::camera::{Camera, CameraError, CameraParams, RoverPose, View};
+use orbfix::geo::GeoRef;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+pub use ortho::render_ortho;
+
+/// Errors of the renderer; each says what was wrong.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum RenderError {
+    /// Camera or pose parameters rejected by the camera model.
+    #[error("bad camera or pose: {0:?} (size must be > 0, HFOV in (0, 180) deg, tilt in [-89, 89] deg, height in (0, 100] m, pitch/roll in [-60, 60] deg, all finite)")]
+    Camera(CameraError),
+    /// Sun elevation or azimuth not finite or out of range.
+    #[error("bad sun: {0}")]
+    Sun(String),
+    /// Another option out of range.
+    #[error("bad render option: {0}")]
+    Option(String),
+}
+
+impl From<CameraError> for RenderError {
+    fn from(e: CameraError) -> Self {
+        RenderError::Camera(e)
+    }
+}
+
+/// The sun as seen from the terrain.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sun {
+    /// Degrees above the horizon, in [0, 90].
+    pub elevation_deg: f64,
+    /// Degrees clockwise from north towards the sun, in [0, 360).
+    pub azimuth_deg: f64,
+}
+
+impl Default for Sun {
+    /// The study's sun: 30 deg elevation; from the south-east (135 deg).
+    fn default() -> Self {
+        Self {
+            elevation_deg: 30.0,
+            azimuth_deg: 135.0,
+        }
+    }
+}
+
+impl Sun {
+    /// A checked sun: elevation in [0, 90] deg, azimuth in [0, 360) deg, both finite.
+    pub fn new(elevation_deg: f64, azimuth_deg: f64) -> Result<Self, RenderError> {
+        let s = Self {
+            elevation_deg,
+            azimuth_deg,
+        };
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Checks the ranges.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        if !(self.elevation_deg.is_finite() && (0.0..=90.0).contains(&self.elevation_deg)) {
+            return Err(RenderError::Sun(format!(
+                "elevation {} deg is not in [0, 90]",
+                self.elevation_deg
+            )));
+        }
+        if !(self.azimuth_deg.is_finite() && (0.0..360.0).contains(&self.azimuth_deg)) {
+            return Err(RenderError::Sun(format!(
+                "azimuth {} deg is not in [0, 360)",
+                self.azimuth_deg
+            )));
+        }
+        Ok(())
+    }
+
+    /// Unit vector towards the sun, world frame (x east, y north, z up).
+    pub fn direction(&self) -> [f64; 3] {
+        let e = self.elevation_deg.to_radians();
+        let a = self.azimuth_deg.to_radians();
+        [e.cos() * a.sin(), e.cos() * a.cos(), e.sin()]
+    }
+}
+
+/// Photometric function: reflected light per unit albedo as a function of incidence `i`
+/// (sun) and emission `e` (viewer) angles to the surface normal.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "model", rename_all = "kebab-case")]
+pub enum Photometry {
+    /// `cos i`.
+    Lambert,
+    /// Lommel-Seeliger, normalized to 1 at `i = e = 0`: `2 cos i / (cos i + cos e)`.
+    LommelSeeliger,
+    /// Lunar-Lambert (McEwen): `(1 - w) cos i + w * 2 cos i / (cos i + cos e)`.
+    LunarLambert {
+        /// Weight `w` of the Lommel-Seeliger term, in [0, 1].
+        weight: f64,
+    },
+}
+
+impl Photometry {
+    /// Value for `cos i`, `cos e` (unitless; 0 where the sun is below the local horizon).
+    pub fn eval(&self, cos_i: f64, cos_e: f64) -> f64 {
+        if cos_i <= 0.0 {
+            return 0.0;
+        }
+        let ls = |ci: f64, ce: f64| 2.0 * ci / (ci + ce.max(0.0)).max(1e-9);
+        match *self {
+            Photometry::Lambert => cos_i,
+            Photometry::LommelSeeliger => ls(cos_i, cos_e),
+            Photometry::LunarLambert { weight } => {
+                (1.0 - weight) * cos_i + weight * ls(cos_i, cos_e)
+            }
+        }
+    }
+}
+
+/// Everything that controls a render besides the world, the pose and the sun.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RenderOptions {
+    /// The rover's camera rig (size, HFOV, height, tilt).
+    pub camera: CameraParamsDef,
+    /// Photometric function.
+    pub photometry: Photometry,
+    /// Fixed exposure: radiance scale before the gray mapping (same for ground and orbit).
+    pub exposure: f64,
+    /// Display gamma of the gray mapping.
+    pub gamma: f64,
+    /// Light in shadow relative to a sun-facing surface (earthshine, scattering), unitless.
+    pub ambient: f64,
+    /// Standard deviation of additive Gaussian sensor noise, gray levels (0 = none).
+    pub noise_sigma: f64,
+    /// Seed of the noise generator (deterministic).
+    pub noise_seed: u64,
+    /// Mesh cell size of the innermost ring, metres.
+    pub near_cell_m: f64,
+    /// Target projected size of a mesh cell, pixels (sets where rings coarsen).
+    pub lod_px_per_cell: f64,
+    /// Farthest terrain drawn, metres (beyond it: black sky).
+    pub max_range_m: f64,
+    /// Farthest distance a cast shadow is traced towards the sun, metres.
+    pub shadow_reach_m: f64,
+}
+
+/// Serializable mirror of [`CameraParams`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CameraParamsDef {
+    /// Image width, pixels.
+    pub width_px: u32,
+    /// Image height, pixels.
+    pub height_px: u32,
+    /// Horizontal field of view, degrees.
+    pub hfov_deg: f32,
+    /// Optical centre above the ground, metres.
+    pub height_m: f32,
+    /// Downward tilt, degrees.
+    pub tilt_deg: f32,
+}
+
+impl From<CameraParams> for CameraParamsDef {
+    fn from(c: CameraParams) -> Self {
+        Self {
+            width_px: c.width_px,
+            height_px: c.height_px,
+            hfov_deg: c.hfov_deg,
+            height_m: c.height_m,
+            tilt_deg: c.tilt_deg,
+        }
+    }
+}
+
+impl From<CameraParamsDef> for CameraParams {
+    fn from(c: CameraParamsDef) -> Self {
+        Self {
+            width_px: c.width_px,
+            height_px: c.height_px,
+            hfov_deg: c.hfov_deg,
+            height_m: c.height_m,
+            tilt_deg: c.tilt_deg,
+        }
+    }
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        Self {
+            camera: CameraParams::default().into(),
+            photometry: Photometry::LunarLambert { weight: 0.5 },
+            exposure: 5.0,
+            gamma: 2.2,
+            ambient: 0.02,
+            noise_sigma: 0.0,
+            noise_seed: 0,
+            near_cell_m: 0.1,
+            lod_px_per_cell: 2.0,
+            max_range_m: 1500.0,
+            shadow_reach_m: 300.0,
+        }
+    }
+}
+
+impl RenderOptions {
+    /// The camera parameters as the core's type.
+    pub fn camera_params(&self) -> CameraParams {
+        self.camera.into()
+    }
+
+    /// Checks every option; the error names the bad one.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        self.camera_params().validate()?;
+        if self.camera.width_px > 8192 || self.camera.height_px > 8192 {
+            return Err(RenderError::Option(format!(
+                "image size {}x{} is larger than 8192 px",
+                self.camera.width_px, self.camera.height_px
+            )));
+        }
+        let pos = |v: f64, name: &str| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(RenderError::Option(format!(
+                    "{name} = {v} must be finite and > 0"
+                )))
+            }
+        };
+        pos(self.exposure, "exposure")?;
+        pos(self.gamma, "gamma")?;
+        pos(self.near_cell_m, "near_cell_m")?;
+        pos(self.lod_px_per_cell, "lod_px_per_cell")?;
+        pos(self.max_range_m, "max_range_m")?;
+        pos(self.shadow_reach_m, "shadow_reach_m")?;
+        if !(self.ambient.is_finite() && (0.0..=1.0).contains(&self.ambient)) {
+            return Err(RenderError::Option(format!(
+                "ambient = {} not in [0, 1]",
+                self.ambient
+            )));
+        }
+        if !(self.noise_sigma.is_finite() && self.noise_sigma >= 0.0) {
+            return Err(RenderError::Option(format!(
+                "noise_sigma = {} must be finite and >= 0",
+                self.noise_sigma
+            )));
+        }
+        if let Photometry::LunarLambert { weight } = self.photometry {
+            if !(weight.is_finite() && (0.0..=1.0).contains(&weight)) {
+                return Err(RenderError::Option(format!(
+                    "lunar-Lambert weight {weight} not in [0, 1]"
+                )));
+            }
+        }
+        if self.max_range_m / self.near_cell_m > 1e6 {
+            return Err(RenderError::Option(
+                "max_range_m / near_cell_m is over 1e6".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Linear radiance (before the gray mapping) of a surface point.
+    ///
+    /// `n`: unit normal; `sun`: unit vector to the sun; `view`: unit vector to the viewer;
+    /// `lit`: 0 (shadow) ..1 (lit).
+    #[inline]
+    pub fn radiance(
+        &self,
+        albedo: f64,
+        n: [f64; 3],
+        sun: [f64; 3],
+        view: [f64; 3],
+        lit: f64,
+    ) -> f64 {
+        let ci = n[0] * sun[0] + n[1] * sun[1] + n[2] * sun[2];
+        let ce = n[0] * view[0] + n[1] * view[1] + n[2] * view[2];
+        self.exposure * albedo * (lit * self.photometry.eval(ci, ce) + self.ambient)
+    }
+
+    /// Gray level of a linear radiance: `255 * clamp(r, 0, 1) ^ (1 / gamma)`.
+    #[inline]
+    pub fn gray(&self, radiance: f64) -> f64 {
+        255.0 * radiance.clamp(0.0, 1.0).powf(1.0 / self.gamma)
+    }
+
+    /// Quantizes gray levels (0..255 floats) to an image, adding the sensor noise if any,
+    /// from a generator seeded with `noise_seed ^ stream` (deterministic).
+    pub fn finish(&self, w: u32, h: u32, gray: &[f32], stream: u64) -> GrayImage {
+        let mut out = GrayImage::new(w, h);
+        let noise = if self.noise_sigma > 0.0 {
+            Normal::new(0.0, self.noise_sigma).ok()
+        } else {
+            None
+        };
+        let mut rng =
+            ChaCha8Rng::seed_from_u64(self.noise_seed ^ stream.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        for (o, &g) in out.as_mut().iter_mut().zip(gray) {
+            let mut v = g as f64;
+            if let Some(n) = &noise {
+                v += n.sample(&mut rng);
+            }
+            *o = v.round().clamp(0.0, 255.0) as u8;
+        }
+        out
+    }
+}
+
+/// The rover standing level on the terrain at `(x_m, y_m)` with a heading (degrees clockwise
+/// from north); `ground_z_m` is the terrain height there.
+pub fn ground_pose(world: &World, x_m: f64, y_m: f64, heading_deg: f64) -> RoverPose {
+    RoverPose::level(
+        x_m as f32,
+        y_m as f32,
+        world.height_m(x_m, y_m) as f32,
+        heading_deg as f32,
+    )
+}
+
+/// The four views of a rover plus their range images.
+#[derive(Clone, Debug)]
+pub struct ViewSet {
+    /// Gray images, order front, right, rear, left.
+    pub views: [GrayImage; 4],
+    /// Range (distance from the optical centre along the pixel's ray), metres, row-major,
+    /// one per view; 0 where the pixel sees sky.
+    pub range_m: [Vec<f32>; 4],
+    /// The cameras that made them.
+    pub cameras: [Camera; 4],
+}
+
+/// Renders the four ground views (front, right, rear, left) of a rover.
+pub fn render_views(
+    world: &World,
+    pose: &RoverPose,
+    sun: Sun,
+    opts: &RenderOptions,
+) -> Result<[GrayImage; 4], RenderError> {
+    Ok(render_views_with_range(world, pose, sun, opts)?.views)
+}
+
+/// Renders the four ground views with their range images.
+pub fn render_views_with_range(
+    world: &World,
+    pose: &RoverPose,
+    sun: Sun,
+    opts: &RenderOptions,
+) -> Result<ViewSet, RenderError> {
+    opts.validate()?;
+    sun.validate()?;
+    pose.validate()?;
+    let params = opts.camera_params();
+    let cams = [
+        Camera::new(&params, pose, View::Front)?,
+        Camera::new(&params, pose, View::Right)?,
+        Camera::new(&params, pose, View::Rear)?,
+        Camera::new(&params, pose, View::Left)?,
+    ];
+    let terrain = terrain::Terrain::around(
+        world,
+        pose.x_m as f64,
+        pose.y_m as f64,
+        opts,
+        params.focal_px() as f64,
+    );
+    let shadow = shadow::ShadowField::build(&terrain, &sun, opts.shadow_reach_m);
+    let attrs = raster::NodeAttrs::compute(&terrain, &shadow);
+    use rayon::prelude::*;
+    let out: Vec<(GrayImage, Vec<f32>)> = cams
+        .par_iter()
+        .enumerate()
+        .map(|(k, cam)| {
+            let (gray, range) = raster::render_view(&terrain, &attrs, cam, &sun, opts);
+            (
+                opts.finish(cam.width_px, cam.height_px, &gray, k as u64 + 1),
+                range,
+            )
+        })
+        .collect();
+    let mut it = out.into_iter();
+    let mut next = || {
+        it.next()
+            .unwrap_or_else(|| (GrayImage::new(1, 1), Vec::new()))
+    };
+    let (v0, r0) = next();
+    let (v1, r1) = next();
+    let (v2, r2) = next();
+    let (v3, r3) = next();
+    Ok(ViewSet {
+        views: [v0, v1, v2, v3],
+        range_m: [r0, r1, r2, r3],
+        cameras: cams,
+    })
+}
+
+/// A satellite crop `size_px x size_px` centred on `(x_m, y_m)` (`docs/frames.md`).
+pub fn render_satellite_crop(
+    world: &World,
+    x_m: f64,
+    y_m: f64,
+    size_px: u32,
+    m_per_px: f64,
+    sun: Sun,
+    opts: &RenderOptions,
+) -> Result<(GrayImage, GeoRef), RenderError> {
+    let geo = GeoRef::centred(
+        x_m as f32,
+        y_m as f32,
+        size_px as usize,
+        size_px as usize,
+        m_per_px as f32,
+    )
+    .map_err(|e| RenderError::Option(format!("bad satellite georeference: {e:?}")))?;
+    let img = render_ortho(world, &geo, size_px, size_px, sun, opts)?;
+    Ok((img, geo))
+}

@@ -1,0 +1,218 @@
+//! Z-buffer rasterizer of the terrain mesh for one pinhole view.
+//!
+//! Each level's grid cells are split into two triangles; a level skips the cells lying
+//! inside the next finer level (keeping one cell of overlap so there are no cracks).
+//! Vertices are shaded once per view (Gouraud, perspective-correct interpolation);
+//! depth is tested on interpolated `1 / z`.
+
+use super::shadow::ShadowField;
+use super::terrain::Terrain;
+use super::{RenderOptions, Sun};
+use orbfix::camera::Camera;
+
+/// Per-node attributes that do not depend on the view: normal, albedo, lit fraction.
+#[derive(Clone, Debug)]
+pub struct NodeAttrs {
+    /// Per level, per node: unit normal.
+    pub normal: Vec<Vec<[f32; 3]>>,
+    /// Per level, per node: lit fraction 0..1.
+    pub lit: Vec<Vec<f32>>,
+}
+
+impl NodeAttrs {
+    /// Normals and shadows of every node of `terrain`.
+    pub fn compute(terrain: &Terrain, shadow: &ShadowField) -> Self {
+        use rayon::prelude::*;
+        let per: Vec<(Vec<[f32; 3]>, Vec<f32>)> = terrain
+            .levels
+            .par_iter()
+            .map(|l| {
+                let (nx, ny) = (l.grid.nx, l.grid.ny);
+                let mut normal = Vec::with_capacity(nx * ny);
+                let mut lit = Vec::with_capacity(nx * ny);
+                for r in 0..ny {
+                    for c in 0..nx {
+                        let n = l.normal(c, r);
+                        normal.push([n[0] as f32, n[1] as f32, n[2] as f32]);
+                        let (x, y) = l.node_xy(c, r);
+                        lit.push(shadow.lit(x, y));
+                    }
+                }
+                (normal, lit)
+            })
+            .collect();
+        let (normal, lit) = per.into_iter().unzip();
+        Self { normal, lit }
+    }
+}
+
+#[derive(Clone, Copy, Default)]
+struct Vtx {
+    u: f32,
+    v: f32,
+    /// Camera depth, metres (<= 0: behind).
+    z: f32,
+    /// Gray level (0..255, already gamma-mapped).
+    g: f32,
+}
+
+const NEAR_M: f32 = 0.05;
+
+/// Renders one view: gray levels (0..255 floats, sky 0) and range (metres, sky 0).
+pub fn render_view(
+    terrain: &Terrain,
+    attrs: &NodeAttrs,
+    cam: &Camera,
+    sun: &Sun,
+    opts: &RenderOptions,
+) -> (Vec<f32>, Vec<f32>) {
+    let (w, h) = (cam.width_px as usize, cam.height_px as usize);
+    let mut inv_z = vec![0f32; w * h];
+    let mut shade = vec![0f32; w * h];
+    let sdir = sun.direction();
+    let rot = cam.world_to_cam;
+    let (ccx, ccy, ccz) = (
+        cam.centre.x as f64,
+        cam.centre.y as f64,
+        cam.centre.z as f64,
+    );
+    let r = |i: usize, j: usize| rot[(i, j)] as f64;
+    let rows = [
+        [r(0, 0), r(0, 1), r(0, 2)],
+        [r(1, 0), r(1, 1), r(1, 2)],
+        [r(2, 0), r(2, 1), r(2, 2)],
+    ];
+    let f = cam.focal_px as f64;
+    let (pcx, pcy) = (cam.cx as f64, cam.cy as f64);
+    let mut verts: Vec<Vtx> = Vec::new();
+    for (k, level) in terrain.levels.iter().enumerate() {
+        let g = &level.grid;
+        let (nx, ny) = (g.nx, g.ny);
+        verts.clear();
+        verts.resize(nx * ny, Vtx::default());
+        let normals = &attrs.normal[k];
+        let lits = &attrs.lit[k];
+        for rr in 0..ny {
+            let y = g.origin_y_m - (rr as f64 + 0.5) * g.m_per_px;
+            for c in 0..nx {
+                let i = rr * nx + c;
+                let x = g.origin_x_m + (c as f64 + 0.5) * g.m_per_px;
+                let zw = g.height_m[i] as f64;
+                let d = [x - ccx, y - ccy, zw - ccz];
+                let cz = rows[2][0] * d[0] + rows[2][1] * d[1] + rows[2][2] * d[2];
+                if cz < NEAR_M as f64 {
+                    verts[i].z = cz as f32;
+                    continue;
+                }
+                let cxx = rows[0][0] * d[0] + rows[0][1] * d[1] + rows[0][2] * d[2];
+                let cyy = rows[1][0] * d[0] + rows[1][1] * d[1] + rows[1][2] * d[2];
+                let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-9);
+                let view = [-d[0] / dist, -d[1] / dist, -d[2] / dist];
+                let n = normals[i];
+                let n = [n[0] as f64, n[1] as f64, n[2] as f64];
+                let rad = opts.radiance(g.albedo[i] as f64, n, sdir, view, lits[i] as f64);
+                verts[i] = Vtx {
+                    u: (f * cxx / cz + pcx) as f32,
+                    v: (f * cyy / cz + pcy) as f32,
+                    z: cz as f32,
+                    g: opts.gray(rad) as f32,
+                };
+            }
+        }
+        // Hole: cells wholly inside the finer level, shrunk by one cell of this level.
+        let hole = if k > 0 {
+            let b = terrain.levels[k - 1].bounds;
+            let m = g.m_per_px;
+            Some([b[0] + m, b[1] + m, b[2] - m, b[3] - m])
+        } else {
+            None
+        };
+        let own = level.bounds;
+        let m = g.m_per_px;
+        for rr in 0..ny - 1 {
+            let y_n = g.origin_y_m - (rr as f64 + 0.5) * m;
+            let y_s = y_n - m;
+            if y_n < own[1] - m || y_s > own[3] + m {
+                continue;
+            }
+            for c in 0..nx - 1 {
+                let x_w = g.origin_x_m + (c as f64 + 0.5) * m;
+                let x_e = x_w + m;
+                if x_e < own[0] - m || x_w > own[2] + m {
+                    continue;
+                }
+                if let Some(hb) = hole {
+                    if x_w >= hb[0] && x_e <= hb[2] && y_s >= hb[1] && y_n <= hb[3] {
+                        continue;
+                    }
+                }
+                let i = rr * nx + c;
+                let a = verts[i];
+                let b = verts[i + 1];
+                let cc = verts[i + nx];
+                let d = verts[i + nx + 1];
+                tri(&mut inv_z, &mut shade, w, h, a, b, cc);
+                tri(&mut inv_z, &mut shade, w, h, b, d, cc);
+            }
+        }
+    }
+    let mut range = vec![0f32; w * h];
+    for j in 0..h {
+        let dv = (j as f32 + 0.5 - cam.cy) / cam.focal_px;
+        for i in 0..w {
+            let k = j * w + i;
+            if inv_z[k] > 0.0 {
+                let du = (i as f32 + 0.5 - cam.cx) / cam.focal_px;
+                range[k] = (1.0 + du * du + dv * dv).sqrt() / inv_z[k];
+            }
+        }
+    }
+    (shade, range)
+}
+
+#[inline]
+fn tri(inv_z: &mut [f32], shade: &mut [f32], w: usize, h: usize, a: Vtx, b: Vtx, c: Vtx) {
+    if a.z < NEAR_M || b.z < NEAR_M || c.z < NEAR_M {
+        return;
+    }
+    let min_u = a.u.min(b.u).min(c.u);
+    let max_u = a.u.max(b.u).max(c.u);
+    let min_v = a.v.min(b.v).min(c.v);
+    let max_v = a.v.max(b.v).max(c.v);
+    // Pixel centres (i + 0.5) inside the box.
+    let i0 = (min_u - 0.5).ceil().max(0.0);
+    let i1 = (max_u - 0.5).floor().min(w as f32 - 1.0);
+    let j0 = (min_v - 0.5).ceil().max(0.0);
+    let j1 = (max_v - 0.5).floor().min(h as f32 - 1.0);
+    if !(i0 <= i1 && j0 <= j1) {
+        return;
+    }
+    let area = (b.u - a.u) * (c.v - a.v) - (b.v - a.v) * (c.u - a.u);
+    if area.abs() < 1e-9 {
+        return;
+    }
+    let inv_area = 1.0 / area;
+    let (iza, izb, izc) = (1.0 / a.z, 1.0 / b.z, 1.0 / c.z);
+    let (ga, gb, gc) = (a.g * iza, b.g * izb, c.g * izc);
+    let (i0, i1, j0, j1) = (i0 as usize, i1 as usize, j0 as usize, j1 as usize);
+    const EPS: f32 = -1e-5;
+    for j in j0..=j1 {
+        let py = j as f32 + 0.5;
+        let row = j * w;
+        for i in i0..=i1 {
+            let px = i as f32 + 0.5;
+            let w0 = ((c.u - b.u) * (py - b.v) - (c.v - b.v) * (px - b.u)) * inv_area;
+            let w1 = ((a.u - c.u) * (py - c.v) - (a.v - c.v) * (px - c.u)) * inv_area;
+            let w2 = 1.0 - w0 - w1;
+            if w0 < EPS || w1 < EPS || w2 < EPS {
+                continue;
+            }
+            let iz = w0 * iza + w1 * izb + w2 * izc;
+            let k = row + i;
+            if iz > inv_z[k] {
+                inv_z[k] = iz;
+                shade[k] = (w0 * ga + w1 * gb + w2 * gc) / iz;
+            }
+        }
+    }
+}

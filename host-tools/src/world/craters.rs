@@ -1,0 +1,424 @@
+//! Impact craters: a power-law size-frequency distribution placed per grid cell per size
+//! class, with bowl, raised rim, ejecta blanket, degradation state and bright rays.
+//!
+//! Size classes are octaves of diameter `[d, 2d)` (the last one cut at `crater_d_max_m`). A
+//! class's grid cells are `ejecta_extent_radii * d_max_class` wide, so a crater influences
+//! at most the 2 x 2 cells around a query point, and with the default exponent 2 every class
+//! has the same expected count per cell. The count per cell is a Poisson draw from the hashed
+//! cell, so the field is a pure function of `(seed, x, y)`.
+
+use super::hash::{cell_hash, cell_of, layer_key, mix64, Rng};
+use super::WorldConfig;
+use serde::{Deserialize, Serialize};
+
+/// Number of bright rays of a fresh crater.
+pub const RAYS: usize = 5;
+
+/// Degradation state of a crater.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Degradation {
+    /// Sharp rim, full depth (~0.2 D), bright halo and rays, boulders around it.
+    Fresh,
+    /// Softened rim, shallower bowl.
+    Mature,
+    /// Nearly filled, rounded depression.
+    Old,
+}
+
+/// One crater, as placed by the world.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Crater {
+    /// Centre, world east, metres.
+    pub x_m: f64,
+    /// Centre, world north, metres.
+    pub y_m: f64,
+    /// Rim-to-rim diameter, metres.
+    pub diameter_m: f64,
+    /// Depth of the bowl floor below the surrounding surface, metres (positive).
+    pub depth_m: f64,
+    /// Height of the rim crest above the surrounding surface before smoothing, metres.
+    pub rim_m: f64,
+    /// Width of the smooth-minimum that rounds the rim, metres (grows with degradation).
+    pub smoothing_m: f64,
+    /// Degradation, 0 (pristine) to 1 (nearly erased).
+    pub degradation: f64,
+    /// Degradation state (from `degradation` and the configured fractions).
+    pub state: Degradation,
+    /// Brightness of the fresh halo and rays, 0..1 (0 unless `Fresh`).
+    pub freshness: f64,
+    /// Outer edge of the ejecta blanket, in radii.
+    pub ejecta_extent_radii: f64,
+    /// Hash identifying the crater (seeds its rays and boulders).
+    pub id: u64,
+}
+
+impl Crater {
+    /// Radius, metres.
+    pub fn radius_m(&self) -> f64 {
+        0.5 * self.diameter_m
+    }
+
+    /// Height change (metres) at offset `(dx, dy)` metres from the centre, given
+    /// `r2 = dx^2 + dy^2`. Zero beyond the ejecta blanket.
+    #[inline]
+    pub fn height_at(&self, r2: f64) -> f64 {
+        let r = self.radius_m();
+        let rho2 = r2 / (r * r);
+        let e = self.ejecta_extent_radii;
+        if rho2 >= e * e {
+            return 0.0;
+        }
+        // Parabolic bowl from -depth at the centre to +rim at the rim (continued outside).
+        let bowl = -self.depth_m + (self.depth_m + self.rim_m) * rho2;
+        // Ejecta: rim * (rho^-3 - e^-3) / (1 - e^-3), capped inside the bowl where it only
+        // has to stay above the bowl for the minimum below.
+        let rc2 = if rho2 > 0.25 { rho2 } else { 0.25 };
+        let inv3 = 1.0 / (rc2 * rc2.sqrt());
+        let e3 = 1.0 / (e * e * e);
+        let ejecta = self.rim_m * (inv3 - e3) / (1.0 - e3);
+        smooth_min(bowl, ejecta, self.smoothing_m)
+    }
+
+    /// Albedo change at offset `(dx, dy)` metres, `r2 = dx^2 + dy^2` (fresh craters only:
+    /// bright floor, halo and rays).
+    #[inline]
+    pub fn albedo_at(&self, dx: f64, dy: f64, r2: f64, boost: f64) -> f64 {
+        if self.freshness <= 0.0 {
+            return 0.0;
+        }
+        let r = self.radius_m();
+        let rho2 = r2 / (r * r);
+        let e = self.ejecta_extent_radii;
+        if rho2 >= e * e {
+            return 0.0;
+        }
+        let b = boost * self.freshness;
+        if rho2 < 1.0 {
+            return 0.7 * b;
+        }
+        let rho = rho2.sqrt();
+        // Halo decaying like the ejecta, plus rays fading linearly to the blanket's edge.
+        let halo = 1.0 / (rho2 * rho);
+        let fade = (e - rho) / (e - 1.0);
+        let inv_r = 1.0 / (rho * r);
+        let (ux, uy) = (dx * inv_r, dy * inv_r);
+        let mut ray: f64 = 0.0;
+        for (k, (vx, vy)) in ray_directions(self.id).into_iter().enumerate() {
+            let c = ux * vx + uy * vy;
+            if c > 0.0 {
+                // cos^32 (about +-12 deg wide), weights vary per ray.
+                let mut p = c * c;
+                p *= p;
+                p *= p;
+                p *= p;
+                p *= p;
+                let w = 0.6 + 0.1 * k as f64;
+                if p * w > ray {
+                    ray = p * w;
+                }
+            }
+        }
+        b * fade * (0.6 * halo + 0.8 * ray)
+    }
+}
+
+/// Unit directions of a crater's rays, from its id (exact arithmetic only).
+fn ray_directions(id: u64) -> [(f64, f64); RAYS] {
+    let mut rng = Rng::new(id);
+    let mut out = [(1.0, 0.0); RAYS];
+    for d in out.iter_mut() {
+        // Rejection-free: any non-zero vector, normalised.
+        let v = rng.next_u64();
+        let x = (v as u32) as f64 / 4_294_967_296.0 - 0.5;
+        let y = ((v >> 32) as u32) as f64 / 4_294_967_296.0 - 0.5;
+        let n2 = x * x + y * y;
+        if n2 > 1e-6 {
+            let inv = 1.0 / n2.sqrt();
+            *d = (x * inv, y * inv);
+        }
+    }
+    out
+}
+
+/// Diameter and degradation draws of crater `i` of the cell with hash `h`.
+#[inline]
+fn shape_of(h: u64, i: u64) -> u64 {
+    mix64(h ^ (i + 1).wrapping_mul(0xd1b5_4a32_d192_ed03))
+}
+
+/// The top 53 bits of `h` as a uniform draw in `[0, 1)`.
+#[inline]
+pub(crate) fn unit_f64(h: u64) -> f64 {
+    (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// Squared distance (m^2) from `(cx, cy)` to the rectangle `[x0, y0, x1, y1]`; for a
+/// point rectangle exactly `(x - cx)^2 + (y - cy)^2`.
+#[inline]
+pub(crate) fn rect_dist2(rect: [f64; 4], cx: f64, cy: f64) -> f64 {
+    let [x0, y0, x1, y1] = rect;
+    let dx = if cx < x0 {
+        x0 - cx
+    } else if cx > x1 {
+        cx - x1
+    } else {
+        0.0
+    };
+    let dy = if cy < y0 {
+        y0 - cy
+    } else if cy > y1 {
+        cy - y1
+    } else {
+        0.0
+    };
+    dx * dx + dy * dy
+}
+
+/// Polynomial smooth minimum of width `k` (Quilez); `min(a, b)` when `k <= 0`.
+#[inline]
+fn smooth_min(a: f64, b: f64, k: f64) -> f64 {
+    let m = if a < b { a } else { b };
+    if k <= 0.0 {
+        return m;
+    }
+    let d = (a - b).abs();
+    if d >= k {
+        return m;
+    }
+    let h = (k - d) / k;
+    m - h * h * k * 0.25
+}
+
+/// Cumulative Poisson table: `cdf[n] = P(count <= n)`.
+pub(crate) fn poisson_cdf(lambda: f64) -> Vec<f64> {
+    let mut cdf = Vec::new();
+    if lambda.is_nan() || lambda <= 0.0 || !lambda.is_finite() {
+        cdf.push(1.0);
+        return cdf;
+    }
+    let mut p = libm::exp(-lambda);
+    let mut acc = 0.0;
+    for n in 0..256u32 {
+        acc += p;
+        cdf.push(acc);
+        if 1.0 - acc < 1e-12 && f64::from(n) > lambda {
+            break;
+        }
+        p *= lambda / f64::from(n + 1);
+    }
+    cdf
+}
+
+/// Count for a uniform draw `u` in `[0, 1)`.
+#[inline]
+pub(crate) fn poisson_draw(cdf: &[f64], u: f64) -> usize {
+    for (n, &c) in cdf.iter().enumerate() {
+        if u < c {
+            return n;
+        }
+    }
+    cdf.len()
+}
+
+/// Diameter for a uniform draw `u` from the truncated power law `N(>D) ~ D^-b` on `[da, db)`.
+#[inline]
+pub(crate) fn power_law_diameter(u: f64, da: f64, db: f64, b: f64) -> f64 {
+    if b == 2.0 {
+        let (a, c) = (1.0 / (da * da), 1.0 / (db * db));
+        1.0 / (a - u * (a - c)).sqrt()
+    } else {
+        let (a, c) = (libm::pow(da, -b), libm::pow(db, -b));
+        libm::pow(a - u * (a - c), -1.0 / b)
+    }
+}
+
+/// Octave size classes `[d, 2d)` from `d_min` up to `d_max`.
+pub(crate) fn octave_bins(d_min: f64, d_max: f64) -> Vec<(f64, f64)> {
+    let mut bins = Vec::new();
+    let mut d = d_min;
+    while d < d_max && bins.len() < 64 {
+        let hi = if 2.0 * d < d_max { 2.0 * d } else { d_max };
+        bins.push((d, hi));
+        d *= 2.0;
+    }
+    bins
+}
+
+#[derive(Clone, Debug)]
+struct CraterClass {
+    d_min: f64,
+    d_max: f64,
+    /// Cell size, metres.
+    cell: f64,
+    /// Largest reach of a crater of this class (ejecta edge), metres.
+    reach: f64,
+    cdf: Vec<f64>,
+    key: u64,
+}
+
+/// All craters of a world.
+#[derive(Clone, Debug)]
+pub(crate) struct CraterField {
+    classes: Vec<CraterClass>,
+    exponent: f64,
+    extent: f64,
+    fresh_fraction: f64,
+    old_fraction: f64,
+    depth_fresh: f64,
+    depth_old: f64,
+    rim_fresh: f64,
+    rim_old: f64,
+}
+
+/// Layer number of crater class `k` (distinct from the other layers of the world).
+const CRATER_LAYER: u64 = 0x1000;
+
+impl CraterField {
+    pub(crate) fn new(seed: u64, cfg: &WorldConfig) -> Self {
+        let extent = cfg.ejecta_extent_radii;
+        let classes = octave_bins(cfg.crater_d_min_m, cfg.crater_d_max_m)
+            .into_iter()
+            .enumerate()
+            .map(|(k, (da, db))| {
+                let reach = extent * 0.5 * db;
+                let cell = 2.0 * reach;
+                let per_m2 = cfg.crater_density_per_m2
+                    * (libm::pow(da, -cfg.crater_exponent) - libm::pow(db, -cfg.crater_exponent));
+                CraterClass {
+                    d_min: da,
+                    d_max: db,
+                    cell,
+                    reach,
+                    cdf: poisson_cdf(per_m2 * cell * cell),
+                    key: layer_key(seed, CRATER_LAYER + k as u64),
+                }
+            })
+            .collect();
+        Self {
+            classes,
+            exponent: cfg.crater_exponent,
+            extent,
+            fresh_fraction: cfg.crater_fresh_fraction,
+            old_fraction: cfg.crater_old_fraction,
+            depth_fresh: cfg.crater_depth_ratio_fresh,
+            depth_old: cfg.crater_depth_ratio_old,
+            rim_fresh: cfg.crater_rim_ratio_fresh,
+            rim_old: cfg.crater_rim_ratio_old,
+        }
+    }
+
+    /// Largest reach of any crater, metres.
+    pub(crate) fn max_reach(&self) -> f64 {
+        self.classes.last().map_or(0.0, |c| c.reach)
+    }
+
+    /// The crater from its two draws.
+    #[inline]
+    fn make(&self, cls: &CraterClass, cx: f64, cy: f64, shape: u64) -> Crater {
+        let ud = (shape as u32) as f64 * (1.0 / 4_294_967_296.0);
+        let deg = ((shape >> 32) as u32) as f64 * (1.0 / 4_294_967_296.0);
+        let d = power_law_diameter(ud, cls.d_min, cls.d_max, self.exponent);
+        let depth = d * (self.depth_fresh + (self.depth_old - self.depth_fresh) * deg);
+        let rim = d * (self.rim_fresh + (self.rim_old - self.rim_fresh) * deg);
+        let state = if deg < self.fresh_fraction {
+            Degradation::Fresh
+        } else if deg >= 1.0 - self.old_fraction {
+            Degradation::Old
+        } else {
+            Degradation::Mature
+        };
+        let freshness = if state == Degradation::Fresh {
+            1.0 - deg / self.fresh_fraction
+        } else {
+            0.0
+        };
+        Crater {
+            x_m: cx,
+            y_m: cy,
+            diameter_m: d,
+            depth_m: depth,
+            rim_m: rim,
+            smoothing_m: (0.05 + 0.6 * deg) * (depth + rim),
+            degradation: deg,
+            state,
+            freshness,
+            ejecta_extent_radii: self.extent,
+            id: mix64(shape ^ 0x243f_6a88_85a3_08d3),
+        }
+    }
+
+    /// Calls `f(cx, cy, h, i)` for every crater of class `cls` in cell `(ix, iy)`: its
+    /// centre (metres) and what [`shape_of`] needs to draw the rest, lazily (most craters a
+    /// query visits are out of reach and never need it).
+    #[inline]
+    fn for_cell(&self, cls: &CraterClass, ix: i64, iy: i64, mut f: impl FnMut(f64, f64, u64, u64)) {
+        let h = cell_hash(cls.key, ix, iy);
+        let n = poisson_draw(&cls.cdf, unit_f64(h));
+        let mut rng = Rng::new(h);
+        for i in 0..n {
+            let pos = rng.next_u64();
+            let cx = (ix as f64 + (pos as u32) as f64 * (1.0 / 4_294_967_296.0)) * cls.cell;
+            let cy = (iy as f64 + ((pos >> 32) as u32) as f64 * (1.0 / 4_294_967_296.0)) * cls.cell;
+            f(cx, cy, h, i as u64);
+        }
+    }
+
+    /// Calls `f(crater)` for every crater whose ejecta blanket reaches into the rectangle
+    /// `[x0, x1] x [y0, y1]` (metres; a point when `x0 == x1` and `y0 == y1`), in a fixed
+    /// order (class, cell row, cell column, index). With `fresh_only`, skips craters that are
+    /// not fresh (albedo-only queries).
+    #[inline]
+    pub(crate) fn visit_rect(&self, rect: [f64; 4], fresh_only: bool, mut f: impl FnMut(&Crater)) {
+        let [x0, y0, x1, y1] = rect;
+        for cls in &self.classes {
+            let reach2 = cls.reach * cls.reach;
+            let ix0 = cell_of(x0 - cls.reach, cls.cell);
+            let ix1 = cell_of(x1 + cls.reach, cls.cell);
+            let iy0 = cell_of(y0 - cls.reach, cls.cell);
+            let iy1 = cell_of(y1 + cls.reach, cls.cell);
+            for iy in iy0..=iy1 {
+                for ix in ix0..=ix1 {
+                    self.for_cell(cls, ix, iy, |cx, cy, h, i| {
+                        let r2 = rect_dist2(rect, cx, cy);
+                        if r2 >= reach2 {
+                            return;
+                        }
+                        let shape = shape_of(h, i);
+                        if fresh_only {
+                            let deg = ((shape >> 32) as u32) as f64 * (1.0 / 4_294_967_296.0);
+                            if deg >= self.fresh_fraction {
+                                return;
+                            }
+                        }
+                        let c = self.make(cls, cx, cy, shape);
+                        let e = c.ejecta_extent_radii * c.radius_m();
+                        if r2 < e * e {
+                            f(&c);
+                        }
+                    });
+                }
+            }
+        }
+    }
+
+    /// Every crater whose centre lies in `[x0, x1) x [y0, y1)` (metres) and whose diameter
+    /// is at least `d_min_m`.
+    pub(crate) fn in_rect(&self, x0: f64, y0: f64, x1: f64, y1: f64, d_min_m: f64) -> Vec<Crater> {
+        let mut out = Vec::new();
+        for cls in self.classes.iter().filter(|c| c.d_max > d_min_m) {
+            for iy in cell_of(y0, cls.cell)..=cell_of(y1, cls.cell) {
+                for ix in cell_of(x0, cls.cell)..=cell_of(x1, cls.cell) {
+                    self.for_cell(cls, ix, iy, |cx, cy, h, i| {
+                        if cx >= x0 && cx < x1 && cy >= y0 && cy < y1 {
+                            let c = self.make(cls, cx, cy, shape_of(h, i));
+                            if c.diameter_m >= d_min_m {
+                                out.push(c);
+                            }
+                        }
+                    });
+                }
+            }
+        }
+        out
+    }
+}
