@@ -154,15 +154,23 @@ pub fn write_figures(out: &EvalOutput, dir: &Path) -> anyhow::Result<()> {
             &dir.join(format!("example_{cond}_{id:03}_topdown.png")),
         )?;
         // The map under the truth, the same size as the top-down image, for comparison.
-        let (c, r) = ex.map.geo.to_pixel(ex.query.x_m as f32, ex.query.y_m as f32);
+        let (c, r) = ex
+            .map
+            .geo
+            .to_pixel(ex.query.x_m as f32, ex.query.y_m as f32);
         let n = ex.top.n;
         let c0 = (c.round() as i64 - n as i64 / 2).clamp(0, (ex.map.width - n) as i64) as u32;
         let r0 = (r.round() as i64 - n as i64 / 2).clamp(0, (ex.map.height - n) as i64) as u32;
-        if let Some(full) =
-            image::GrayImage::from_raw(ex.map.width as u32, ex.map.height as u32, ex.map.image.clone())
-        {
+        if let Some(full) = image::GrayImage::from_raw(
+            ex.map.width as u32,
+            ex.map.height as u32,
+            ex.map.image.clone(),
+        ) {
             let crop = image::imageops::crop_imm(&full, c0, r0, n as u32, n as u32).to_image();
-            save_png_atomic(&crop, &dir.join(format!("example_{cond}_{id:03}_map_at_truth.png")))?;
+            save_png_atomic(
+                &crop,
+                &dir.join(format!("example_{cond}_{id:03}_map_at_truth.png")),
+            )?;
         }
         for (r, loc) in out.reports.iter().zip(&ex.locs) {
             let pic = overlay::map_picture(

@@ -7,6 +7,6 @@ pub mod eval;
 pub mod generate;
 pub mod localize;
 pub mod map;
-pub mod render;
 pub mod quantize;
+pub mod render;
 pub mod train;

@@ -4,8 +4,7 @@
 //! median and p95 error of the best window, and pair AUC (true window vs the 440 others).
 
 use super::data::{
-    sample_in,
-    random_aug, random_sun, render_ortho, rover_input, Sun, Zone, SAT_SIDE, WINDOW_M,
+    random_aug, random_sun, render_ortho, rover_input, sample_in, Sun, Zone, SAT_SIDE, WINDOW_M,
 };
 use super::float_model::{batch_tensor, FloatNet};
 use crate::world::World;
