@@ -124,32 +124,60 @@ impl Crater {
 
 impl Crater {
     /// Albedo change averaged over the `footprint_m` x `footprint_m` square centred at
-    /// offset `(dx, dy)` metres (fresh craters only). Where the footprint is small beside the
-    /// crater's finest detail (its rays are about 0.2 radii wide at the rim) this is the point
-    /// value; otherwise the mean of `k x k` evenly spread samples, `k = ceil(footprint /
-    /// (0.2 R))` up to 4, so a crater smaller than a pixel adds its area-weighted brightness
-    /// instead of all or nothing.
+    /// offset `(dx, dy)` metres from the centre (fresh craters only), analytically: the
+    /// bright floor's edge is a linear ramp one footprint wide (area-weighted where the
+    /// footprint straddles the rim), and each ray lobe (`cos^32`, a Gaussian of angular
+    /// variance 1/32) is widened by the footprint's angular width `w = footprint / r` seen
+    /// from the centre (variance + `w^2 / 12`, the box's) at equal integral, so a ray
+    /// narrower than a pixel adds its area-weighted brightness instead of all or nothing.
+    /// The halo (`rho^-3`) is smooth and taken at the footprint centre. `footprint_m <= 0`:
+    /// the point value [`Crater::albedo_at`].
     #[inline]
     pub fn albedo_filtered(&self, dx: f64, dy: f64, boost: f64, footprint_m: f64) -> f64 {
+        let r2 = dx * dx + dy * dy;
         if self.freshness <= 0.0 {
             return 0.0;
         }
-        let k = (footprint_m / (0.2 * self.radius_m())).ceil();
-        if !(k > 1.0) {
-            return self.albedo_at(dx, dy, dx * dx + dy * dy, boost);
+        if !(footprint_m > 0.0) {
+            return self.albedo_at(dx, dy, r2, boost);
         }
-        let k = if k > 4.0 { 4 } else { k as usize };
-        let step = footprint_m / k as f64;
-        let start = -0.5 * footprint_m + 0.5 * step;
-        let mut sum = 0.0;
-        for j in 0..k {
-            let oy = dy + start + j as f64 * step;
-            for i in 0..k {
-                let ox = dx + start + i as f64 * step;
-                sum += self.albedo_at(ox, oy, ox * ox + oy * oy, boost);
+        let rc = self.radius_m();
+        let e = self.ejecta_extent_radii;
+        let r = r2.sqrt();
+        let b = boost * self.freshness;
+        // Fraction of the footprint inside the rim (the floor, 0.7 b).
+        let t_floor = (0.5 + (rc - r) / footprint_m).clamp(0.0, 1.0);
+        if t_floor >= 1.0 {
+            return 0.7 * b;
+        }
+        // Outside the rim: halo and rays at rho >= 1, fading to 0 at the blanket's edge.
+        let rho = (r / rc).max(1.0);
+        if rho >= e {
+            return t_floor * 0.7 * b;
+        }
+        let halo = 1.0 / (rho * rho * rho);
+        let fade = (e - rho) / (e - 1.0);
+        let (ux, uy) = if r > 1e-12 {
+            (dx / r, dy / r)
+        } else {
+            (1.0, 0.0)
+        };
+        let w = footprint_m / (rho * rc);
+        let var = 1.0 / 32.0 + w * w / 12.0;
+        let amp = (1.0 / (32.0 * var)).sqrt();
+        let inv_var = 1.0 / var;
+        let mut ray: f64 = 0.0;
+        for (k, (vx, vy)) in ray_directions(self.id).into_iter().enumerate() {
+            let c = ux * vx + uy * vy;
+            let q = (1.0 - c) * inv_var;
+            if c > 0.0 && q < 30.0 {
+                let p = amp * libm::exp(-q) * (0.6 + 0.1 * k as f64);
+                if p > ray {
+                    ray = p;
+                }
             }
         }
-        sum / (k * k) as f64
+        t_floor * 0.7 * b + (1.0 - t_floor) * b * fade * (0.6 * halo + 0.8 * ray)
     }
 }
 

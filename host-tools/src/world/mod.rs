@@ -533,7 +533,15 @@ impl World {
                 let mut items = Vec::new();
                 for (t, xt) in xs.chunks(tile).enumerate() {
                     self.fill_tile(
-                        xt, &ys, &mut items, hs, als, nx, t * tile, rocks_per_pixel, filt,
+                        xt,
+                        &ys,
+                        &mut items,
+                        hs,
+                        als,
+                        nx,
+                        t * tile,
+                        rocks_per_pixel,
+                        filt,
                     );
                 }
             });
@@ -802,6 +810,10 @@ struct Filter {
     grow: f64,
 }
 
+/// Boulder size classes no wider than this many footprints enter footprint-filtered grids by
+/// their expected albedo instead of one by one.
+const MEAN_FIELD_ROCK_FOOTPRINTS: f64 = 0.5;
+
 impl Filter {
     /// Point samples: exactly the unfiltered world.
     const POINT: Filter = Filter {
@@ -823,7 +835,7 @@ impl Filter {
         let mut first = 0;
         let mut mean = 0.0;
         while let Some(d) = rocks.class_d_max(first) {
-            if d > 0.5 * footprint_m {
+            if d > MEAN_FIELD_ROCK_FOOTPRINTS * footprint_m {
                 break;
             }
             mean += rocks.class_mean_albedo(first);
@@ -841,7 +853,9 @@ impl Filter {
             } else {
                 world.cfg.fresh_crater_rock_d_min_m
             },
-            max_rock_radius: rocks.class_d_max(n.wrapping_sub(1)).map_or(0.0, |d| 0.5 * d),
+            max_rock_radius: rocks
+                .class_d_max(n.wrapping_sub(1))
+                .map_or(0.0, |d| 0.5 * d),
             // sqrt(pi / 2): corner of the equal-area square of a disc, in radii.
             grow: 1.2534,
         }
@@ -973,6 +987,11 @@ impl Acc<'_> {
                 let (dx, dy) = (x - r.x_m, y - r.y_m);
                 let r2 = dx * dx + dy * dy;
                 let rr = 0.5 * r.diameter_m;
+                // Nothing of the disc (or its equal-area square) reaches the footprint.
+                let reach = filt.grow * rr + filt.hf * core::f64::consts::SQRT_2;
+                if r2 >= reach * reach {
+                    return false;
+                }
                 if self.relief && r2 < rr * rr {
                     self.h += r.height_at(r2);
                 }
