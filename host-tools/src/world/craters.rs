@@ -138,7 +138,7 @@ impl Crater {
         if self.freshness <= 0.0 {
             return 0.0;
         }
-        if !(footprint_m > 0.0) {
+        if footprint_m.is_nan() || footprint_m <= 0.0 {
             return self.albedo_at(dx, dy, r2, boost);
         }
         let rc = self.radius_m();

@@ -456,7 +456,9 @@ impl World {
     /// a sensor integrates its pixel, or a mesh node stands for its cell): a boulder or a
     /// ray narrower than the footprint adds its area-weighted brightness instead of all or
     /// nothing, so grids of different spacings agree in the mean and do not alias. Heights
-    /// stay point samples. `footprint_m <= 0` (or not finite) is [`World::sample_grid`].
+    /// stay point samples, except that boulders no wider than half the footprint are left
+    /// out of them (bumps between the nodes: a level of detail). `footprint_m <= 0` (or not
+    /// finite) is [`World::sample_grid`].
     ///
     /// How (docs/world.md): a boulder adds `boost x covered fraction`, the overlap of the
     /// footprint with the boulder's disc (an equal-area square for boulders smaller than the
