@@ -132,7 +132,9 @@ impl Crater {
     /// narrower than a pixel adds its area-weighted brightness instead of all or nothing.
     /// The halo (`rho^-3`) is smooth and taken at the footprint centre. `footprint_m <= 0`:
     /// the point value [`Crater::albedo_at`].
-    #[inline]
+    // Not inlined: it is called for few (fresh) craters, and inlining it into the per-feature
+    // sum bloats that hot function's frame for every boulder and crater.
+    #[inline(never)]
     pub fn albedo_filtered(&self, dx: f64, dy: f64, boost: f64, footprint_m: f64) -> f64 {
         let r2 = dx * dx + dy * dy;
         if self.freshness <= 0.0 {

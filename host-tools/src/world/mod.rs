@@ -813,8 +813,12 @@ struct Filter {
 }
 
 /// Boulder size classes no wider than this many footprints enter footprint-filtered grids by
-/// their expected albedo instead of one by one.
+/// their expected albedo instead of one by one (fine grids; coarse ones: one footprint).
 const MEAN_FIELD_ROCK_FOOTPRINTS: f64 = 0.5;
+
+/// From this footprint on (metres; the renderer's mesh rings from 0.8 m, i.e. beyond about
+/// 43 m and any 50 m top-down image), classes no wider than one footprint enter by their mean.
+const MEAN_FIELD_COARSE_M: f64 = 0.75;
 
 impl Filter {
     /// Point samples: exactly the unfiltered world.
@@ -836,8 +840,15 @@ impl Filter {
         let rocks = &world.rocks;
         let mut first = 0;
         let mut mean = 0.0;
+        // Coarse footprints take every class no wider than the footprint by its mean:
+        // visiting boulders is most of their cost.
+        let limit = if footprint_m >= MEAN_FIELD_COARSE_M {
+            footprint_m
+        } else {
+            MEAN_FIELD_ROCK_FOOTPRINTS * footprint_m
+        };
         while let Some(d) = rocks.class_d_max(first) {
-            if d > MEAN_FIELD_ROCK_FOOTPRINTS * footprint_m {
+            if d > limit {
                 break;
             }
             mean += rocks.class_mean_albedo(first);
@@ -962,7 +973,7 @@ impl Acc<'_> {
                 if self.relief && r2 < e * e {
                     self.h += c.height_at(r2);
                 }
-                if self.want_a {
+                if self.want_a && c.freshness > 0.0 {
                     self.a += c.albedo_filtered(dx, dy, self.boost, filt.fp);
                     if filt.fresh_rock_mean > 0.0
                         && c.freshness > 0.0
