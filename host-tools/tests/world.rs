@@ -706,8 +706,8 @@ fn footprint_filtered_albedo_is_the_box_average_of_the_fine_albedo() {
         let truth = block_mean(&fine, k);
         let point = world.sample_grid(ox, oy, coarse, n, n);
         let filt = world.sample_grid_filtered(ox, oy, coarse, n, n, coarse);
-        // Heights stay point samples, except that boulders no wider than half the footprint
-        // (0.2-0.8 m at 1.6 m: bumps of at most 0.32 m between nodes) are left out of them.
+        // Heights stay point samples, except that boulders taken by their mean (up to 1.6 m
+        // wide at 1.6 m: bumps of at most 0.64 m, rarely two overlapping) are left out.
         if coarse < 1.0 {
             assert_eq!(filt.height_m, point.height_m);
         } else {

@@ -456,14 +456,14 @@ impl World {
     /// a sensor integrates its pixel, or a mesh node stands for its cell): a boulder or a
     /// ray narrower than the footprint adds its area-weighted brightness instead of all or
     /// nothing, so grids of different spacings agree in the mean and do not alias. Heights
-    /// stay point samples, except that boulders no wider than half the footprint are left
+    /// stay point samples, except that the boulders taken by their mean are left
     /// out of them (bumps between the nodes: a level of detail). `footprint_m <= 0` (or not
     /// finite) is [`World::sample_grid`].
     ///
     /// How (docs/world.md): a boulder adds `boost x covered fraction`, the overlap of the
     /// footprint with the boulder's disc (an equal-area square for boulders smaller than the
     /// footprint, a linear edge ramp of one footprint for larger ones); boulder size classes
-    /// no wider than half the footprint add their expected value (density x mean area x mean
+    /// no wider than half the footprint (one footprint from 0.75 m on) add their expected value (density x mean area x mean
     /// boost, `rho^-3`-weighted around fresh craters) instead of being visited; fresh
     /// craters' albedo is averaged over up to 4 x 4 samples of the footprint
     /// ([`Crater::albedo_filtered`]).
