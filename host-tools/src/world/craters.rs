@@ -168,20 +168,34 @@ impl Crater {
         let var = 1.0 / 32.0 + w * w / 12.0;
         let amp = (1.0 / (32.0 * var)).sqrt();
         let inv_var = 1.0 / var;
-        let mut ray: f64 = 0.0;
+        // The brightest ray, `max_k w_k exp(-q_k)`, found on the logarithms: one `exp`.
+        let mut best = f64::NEG_INFINITY;
         for (k, (vx, vy)) in ray_directions(self.id).into_iter().enumerate() {
             let c = ux * vx + uy * vy;
-            let q = (1.0 - c) * inv_var;
-            if c > 0.0 && q < 30.0 {
-                let p = amp * libm::exp(-q) * (0.6 + 0.1 * k as f64);
-                if p > ray {
-                    ray = p;
+            if c > 0.0 {
+                let l = LN_RAY_WEIGHT[k] - (1.0 - c) * inv_var;
+                if l > best {
+                    best = l;
                 }
             }
         }
+        let ray = if best > -30.0 {
+            amp * libm::exp(best)
+        } else {
+            0.0
+        };
         t_floor * 0.7 * b + (1.0 - t_floor) * b * fade * (0.6 * halo + 0.8 * ray)
     }
 }
+
+/// `ln(0.6 + 0.1 k)`: the logarithms of the rays' weights in [`Crater::albedo_at`].
+const LN_RAY_WEIGHT: [f64; RAYS] = [
+    -0.510_825_623_765_990_7,
+    -0.356_674_943_938_732_45,
+    -0.223_143_551_314_209_7,
+    -0.105_360_515_657_826_28,
+    0.0,
+];
 
 /// Unit directions of a crater's rays, from its id (exact arithmetic only).
 fn ray_directions(id: u64) -> [(f64, f64); RAYS] {
