@@ -63,6 +63,23 @@ pub trait Surface: Sync {
             albedo,
         }
     }
+
+    /// As [`Surface::sample_grid`], with each pixel's albedo averaged over its square
+    /// footprint of side `footprint_m` metres (see [`World::sample_grid_filtered`]). The
+    /// renderer asks for footprint = node spacing (mesh levels) or pixel size (orthographic
+    /// renders). Default: point samples.
+    fn sample_grid_filtered(
+        &self,
+        origin_x_m: f64,
+        origin_y_m: f64,
+        m_per_px: f64,
+        nx: usize,
+        ny: usize,
+        footprint_m: f64,
+    ) -> HeightGrid {
+        let _ = footprint_m;
+        self.sample_grid(origin_x_m, origin_y_m, m_per_px, nx, ny)
+    }
 }
 
 impl Surface for World {
@@ -81,6 +98,17 @@ impl Surface for World {
         ny: usize,
     ) -> HeightGrid {
         World::sample_grid(self, origin_x_m, origin_y_m, m_per_px, nx, ny)
+    }
+    fn sample_grid_filtered(
+        &self,
+        origin_x_m: f64,
+        origin_y_m: f64,
+        m_per_px: f64,
+        nx: usize,
+        ny: usize,
+        footprint_m: f64,
+    ) -> HeightGrid {
+        World::sample_grid_filtered(self, origin_x_m, origin_y_m, m_per_px, nx, ny, footprint_m)
     }
 }
 

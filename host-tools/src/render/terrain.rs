@@ -88,7 +88,7 @@ fn sample_block(world: &dyn Surface, ox: f64, oy: f64, m: f64, nx: usize, ny: us
         .into_par_iter()
         .map(|b| {
             let rows = band.min(ny - b * band);
-            world.sample_grid(ox, oy - (b * band) as f64 * m, m, nx, rows)
+            world.sample_grid_filtered(ox, oy - (b * band) as f64 * m, m, nx, rows, m)
         })
         .collect();
     let mut height_m = Vec::with_capacity(nx * ny);
@@ -249,7 +249,7 @@ impl Terrain {
             .into_par_iter()
             .map(|b| {
                 let rows = band.min(ny - b * band);
-                world.sample_grid(ox - m, oy + m - (b * band) as f64 * m, m, nx, rows)
+                world.sample_grid_filtered(ox - m, oy + m - (b * band) as f64 * m, m, nx, rows, m)
             })
             .collect();
         let mut height_m = Vec::with_capacity(nx * ny);
@@ -353,12 +353,13 @@ impl TileCache {
         // Tile (tx, ty): node columns tx*N.., node rows (northing index) ty*N.. (row 0 of the
         // tile is the northernmost, index ty*N + N - 1).
         let n = TILE_N;
-        let g = world.sample_grid(
+        let g = world.sample_grid_filtered(
             (tx * n as i64) as f64 * m,
             ((ty + 1) * n as i64) as f64 * m,
             m,
             n,
             n,
+            m,
         );
         let t = std::sync::Arc::new((g.height_m, g.albedo));
         if let Ok(mut map) = self.tiles.write() {

@@ -122,6 +122,81 @@ impl Crater {
     }
 }
 
+impl Crater {
+    /// Albedo change averaged over the `footprint_m` x `footprint_m` square centred at
+    /// offset `(dx, dy)` metres from the centre (fresh craters only), analytically: the
+    /// bright floor's edge is a linear ramp one footprint wide (area-weighted where the
+    /// footprint straddles the rim), and each ray lobe (`cos^32`, a Gaussian of angular
+    /// variance 1/32) is widened by the footprint's angular width `w = footprint / r` seen
+    /// from the centre (variance + `w^2 / 12`, the box's) at equal integral, so a ray
+    /// narrower than a pixel adds its area-weighted brightness instead of all or nothing.
+    /// The halo (`rho^-3`) is smooth and taken at the footprint centre. `footprint_m <= 0`:
+    /// the point value [`Crater::albedo_at`].
+    // Not inlined: it is called for few (fresh) craters, and inlining it into the per-feature
+    // sum bloats that hot function's frame for every boulder and crater.
+    #[inline(never)]
+    pub fn albedo_filtered(&self, dx: f64, dy: f64, boost: f64, footprint_m: f64) -> f64 {
+        let r2 = dx * dx + dy * dy;
+        if self.freshness <= 0.0 {
+            return 0.0;
+        }
+        if footprint_m.is_nan() || footprint_m <= 0.0 {
+            return self.albedo_at(dx, dy, r2, boost);
+        }
+        let rc = self.radius_m();
+        let e = self.ejecta_extent_radii;
+        let r = r2.sqrt();
+        let b = boost * self.freshness;
+        // Fraction of the footprint inside the rim (the floor, 0.7 b).
+        let t_floor = (0.5 + (rc - r) / footprint_m).clamp(0.0, 1.0);
+        if t_floor >= 1.0 {
+            return 0.7 * b;
+        }
+        // Outside the rim: halo and rays at rho >= 1, fading to 0 at the blanket's edge.
+        let rho = (r / rc).max(1.0);
+        if rho >= e {
+            return t_floor * 0.7 * b;
+        }
+        let halo = 1.0 / (rho * rho * rho);
+        let fade = (e - rho) / (e - 1.0);
+        let (ux, uy) = if r > 1e-12 {
+            (dx / r, dy / r)
+        } else {
+            (1.0, 0.0)
+        };
+        let w = footprint_m / (rho * rc);
+        let var = 1.0 / 32.0 + w * w / 12.0;
+        let amp = (1.0 / (32.0 * var)).sqrt();
+        let inv_var = 1.0 / var;
+        // The brightest ray, `max_k w_k exp(-q_k)`, found on the logarithms: one `exp`.
+        let mut best = f64::NEG_INFINITY;
+        for (k, (vx, vy)) in ray_directions(self.id).into_iter().enumerate() {
+            let c = ux * vx + uy * vy;
+            if c > 0.0 {
+                let l = LN_RAY_WEIGHT[k] - (1.0 - c) * inv_var;
+                if l > best {
+                    best = l;
+                }
+            }
+        }
+        let ray = if best > -30.0 {
+            amp * libm::exp(best)
+        } else {
+            0.0
+        };
+        t_floor * 0.7 * b + (1.0 - t_floor) * b * fade * (0.6 * halo + 0.8 * ray)
+    }
+}
+
+/// `ln(0.6 + 0.1 k)`: the logarithms of the rays' weights in [`Crater::albedo_at`].
+const LN_RAY_WEIGHT: [f64; RAYS] = [
+    -0.510_825_623_765_990_7,
+    -0.356_674_943_938_732_45,
+    -0.223_143_551_314_209_7,
+    -0.105_360_515_657_826_28,
+    0.0,
+];
+
 /// Unit directions of a crater's rays, from its id (exact arithmetic only).
 fn ray_directions(id: u64) -> [(f64, f64); RAYS] {
     let mut rng = Rng::new(id);

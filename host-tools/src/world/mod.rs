@@ -421,17 +421,17 @@ impl World {
 
     /// Terrain elevation at `(x, y)` metres, in metres. 0 for non-finite input.
     pub fn height_m(&self, x: f64, y: f64) -> f64 {
-        self.eval(x, y, true, false).0
+        self.eval(x, y, true, false, &Filter::POINT).0
     }
 
     /// Normal albedo at `(x, y)` metres, in `0..=1`. `albedo_mean` for non-finite input.
     pub fn albedo(&self, x: f64, y: f64) -> f64 {
-        self.eval(x, y, false, true).1
+        self.eval(x, y, false, true, &Filter::POINT).1
     }
 
     /// `(height_m, albedo)` at `(x, y)` metres: both for about the price of one.
     pub fn sample(&self, x: f64, y: f64) -> (f64, f64) {
-        self.eval(x, y, true, true)
+        self.eval(x, y, true, true, &Filter::POINT)
     }
 
     /// Samples a north-up grid of `nx x ny` pixels of `m_per_px` metres whose north-west
@@ -447,6 +447,55 @@ impl World {
         m_per_px: f64,
         nx: usize,
         ny: usize,
+    ) -> HeightGrid {
+        self.grid_with(origin_x_m, origin_y_m, m_per_px, nx, ny, &Filter::POINT)
+    }
+
+    /// As [`World::sample_grid`], but each pixel's albedo is the mean over its square
+    /// footprint of side `footprint_m` metres centred on the pixel centre (a box filter, as
+    /// a sensor integrates its pixel, or a mesh node stands for its cell): a boulder or a
+    /// ray narrower than the footprint adds its area-weighted brightness instead of all or
+    /// nothing, so grids of different spacings agree in the mean and do not alias. Heights
+    /// stay point samples, except that the boulders taken by their mean are left
+    /// out of them (bumps between the nodes: a level of detail). `footprint_m <= 0` (or not
+    /// finite) is [`World::sample_grid`].
+    ///
+    /// How (docs/world.md): a boulder adds `boost x covered fraction`, the overlap of the
+    /// footprint with the boulder's disc (an equal-area square for boulders smaller than the
+    /// footprint, a linear edge ramp of one footprint for larger ones); boulder size classes
+    /// no wider than half the footprint (one footprint from 0.75 m on) add their expected value (density x mean area x mean
+    /// boost, `rho^-3`-weighted around fresh craters) instead of being visited; fresh
+    /// craters' albedo is averaged over up to 4 x 4 samples of the footprint
+    /// ([`Crater::albedo_filtered`]).
+    pub fn sample_grid_filtered(
+        &self,
+        origin_x_m: f64,
+        origin_y_m: f64,
+        m_per_px: f64,
+        nx: usize,
+        ny: usize,
+        footprint_m: f64,
+    ) -> HeightGrid {
+        let filt = Filter::new(self, footprint_m);
+        self.grid_with(origin_x_m, origin_y_m, m_per_px, nx, ny, &filt)
+    }
+
+    /// Albedo (normal albedo, 0..1) averaged over the `footprint_m`-wide square centred at
+    /// `(x, y)` metres, as [`World::sample_grid_filtered`]; [`World::albedo`] for
+    /// `footprint_m <= 0`.
+    pub fn albedo_filtered(&self, x: f64, y: f64, footprint_m: f64) -> f64 {
+        let filt = Filter::new(self, footprint_m);
+        self.eval(x, y, false, true, &filt).1
+    }
+
+    fn grid_with(
+        &self,
+        origin_x_m: f64,
+        origin_y_m: f64,
+        m_per_px: f64,
+        nx: usize,
+        ny: usize,
+        filt: &Filter,
     ) -> HeightGrid {
         let (nx, ny) = match nx.checked_mul(ny) {
             Some(n) if n <= MAX_GRID_PIXELS => (nx, ny),
@@ -485,7 +534,17 @@ impl World {
                     .collect();
                 let mut items = Vec::new();
                 for (t, xt) in xs.chunks(tile).enumerate() {
-                    self.fill_tile(xt, &ys, &mut items, hs, als, nx, t * tile, rocks_per_pixel);
+                    self.fill_tile(
+                        xt,
+                        &ys,
+                        &mut items,
+                        hs,
+                        als,
+                        nx,
+                        t * tile,
+                        rocks_per_pixel,
+                        filt,
+                    );
                 }
             });
         grid
@@ -553,36 +612,49 @@ impl World {
 
     /// Calls `f` for every crater and boulder that reaches into `rect` (`[x0, y0, x1, y1]`
     /// metres), in the one fixed order in which their contributions are summed.
+    /// With a footprint filter, `rect` must already be grown by half the footprint, and
+    /// boulder classes below `filt.first_rock_class` are skipped (they enter by their mean).
     #[inline]
-    fn features(&self, rect: [f64; 4], fresh_only: bool, mut f: impl FnMut(Feature<'_>)) {
+    fn features(
+        &self,
+        rect: [f64; 4],
+        fresh_only: bool,
+        filt: &Filter,
+        mut f: impl FnMut(Feature<'_>),
+    ) {
         let rocks = &self.rocks;
-        rocks.visit_rect(rect, |r| f(Feature::Rock(r)));
+        let (k0, grow) = (filt.first_rock_class, filt.grow);
+        rocks.visit_rect_from(rect, k0, grow, |r| f(Feature::Rock(r)));
         self.craters.visit_rect(rect, fresh_only, |c| {
             f(Feature::Crater(c));
             if rocks.crater_has_rocks(c) {
-                rocks.visit_crater_rect(c, rect, |r| f(Feature::Rock(r)));
+                rocks.visit_crater_rect_from(c, rect, k0, grow, |r| f(Feature::Rock(r)));
             }
         });
     }
 
     /// The sum before features: noise relief and regolith albedo.
     #[inline]
-    fn base(&self, x: f64, y: f64, relief: bool, want_a: bool) -> Acc {
+    fn base<'f>(&self, x: f64, y: f64, relief: bool, want_a: bool, filt: &'f Filter) -> Acc<'f> {
+        let mut a = 0.0;
+        if want_a {
+            a = self.cfg.albedo_mean + self.albedo_regional.at(x, y) + self.albedo_fine.at(x, y);
+            if filt.rock_mean > 0.0 {
+                a += filt.rock_mean;
+            }
+        }
         Acc {
             h: if relief { self.relief.at(x, y) } else { 0.0 },
-            a: if want_a {
-                self.cfg.albedo_mean + self.albedo_regional.at(x, y) + self.albedo_fine.at(x, y)
-            } else {
-                0.0
-            },
+            a,
             relief,
             want_a,
             boost: self.cfg.fresh_crater_albedo_boost,
+            filt,
         }
     }
 
     #[inline]
-    fn eval(&self, x: f64, y: f64, want_h: bool, want_a: bool) -> (f64, f64) {
+    fn eval(&self, x: f64, y: f64, want_h: bool, want_a: bool, filt: &Filter) -> (f64, f64) {
         if !(x.is_finite() && y.is_finite()) {
             return (0.0, self.cfg.albedo_mean);
         }
@@ -590,8 +662,8 @@ impl World {
         if !relief && !want_a {
             return (0.0, 0.0);
         }
-        let mut acc = self.base(x, y, relief, want_a);
-        self.features([x, y, x, y], !relief, |f| {
+        let mut acc = self.base(x, y, relief, want_a, filt);
+        self.features(filt.grown([x, y, x, y]), !relief, filt, |f| {
             acc.add(f, x, y);
         });
         acc.finish()
@@ -614,6 +686,7 @@ impl World {
         stride: usize,
         col0: usize,
         rocks_per_pixel: bool,
+        filt: &Filter,
     ) {
         let relief = self.cfg.relief;
         let (Some(&xa), Some(&xb), Some(&ya), Some(&yb)) =
@@ -625,13 +698,13 @@ impl World {
         let single = xs.len() == 1 && ys.len() == 1;
         let gather = finite && !single;
         if gather {
-            let rect = [xa.min(xb), ya.min(yb), xa.max(xb), ya.max(yb)];
+            let rect = filt.grown([xa.min(xb), ya.min(yb), xa.max(xb), ya.max(yb)]);
             items.clear();
             if rocks_per_pixel {
                 self.craters
                     .visit_rect(rect, !relief, |c| items.push(Item::Crater(*c)));
             } else {
-                self.features(rect, !relief, |f| {
+                self.features(rect, !relief, filt, |f| {
                     items.push(match f {
                         Feature::Crater(c) => Item::Crater(*c),
                         Feature::Rock(r) => Item::Rock(*r),
@@ -642,18 +715,19 @@ impl World {
         for (r, &y) in ys.iter().enumerate() {
             for (c, &x) in xs.iter().enumerate() {
                 let (h, a) = if !gather {
-                    self.eval(x, y, true, true)
+                    self.eval(x, y, true, true, filt)
                 } else if rocks_per_pixel {
-                    let mut acc = self.base(x, y, relief, true);
-                    let point = [x, y, x, y];
+                    let mut acc = self.base(x, y, relief, true, filt);
+                    let point = filt.grown([x, y, x, y]);
+                    let (k0, grow) = (filt.first_rock_class, filt.grow);
                     let rocks = &self.rocks;
-                    rocks.visit_rect(point, |rk| {
+                    rocks.visit_rect_from(point, k0, grow, |rk| {
                         acc.add(Feature::Rock(rk), x, y);
                     });
                     for it in items.iter() {
                         if let Item::Crater(cr) = it {
                             if acc.add(Feature::Crater(cr), x, y) && rocks.crater_has_rocks(cr) {
-                                rocks.visit_crater_rect(cr, point, |rk| {
+                                rocks.visit_crater_rect_from(cr, point, k0, grow, |rk| {
                                     acc.add(Feature::Rock(rk), x, y);
                                 });
                             }
@@ -661,7 +735,7 @@ impl World {
                     }
                     acc.finish()
                 } else {
-                    let mut acc = self.base(x, y, relief, true);
+                    let mut acc = self.base(x, y, relief, true, filt);
                     for it in items.iter() {
                         acc.add(it.as_feature(), x, y);
                     }
@@ -717,20 +791,138 @@ impl Item {
     }
 }
 
+/// How samples integrate albedo over their footprint ([`World::sample_grid_filtered`]).
+#[derive(Clone, Copy, Debug)]
+struct Filter {
+    /// Side of the square footprint, metres (0: point samples).
+    fp: f64,
+    /// Half of `fp`, metres.
+    hf: f64,
+    /// Boulder classes before this one enter by their expected albedo (not visited).
+    first_rock_class: usize,
+    /// Expected albedo of those classes' background boulders (per unit area).
+    rock_mean: f64,
+    /// Expected albedo of those classes' fresh-crater boulders inside the rim.
+    fresh_rock_mean: f64,
+    /// Smallest fresh crater with boulders, metres (infinite when there are none).
+    fresh_rock_d_min: f64,
+    /// Largest boulder radius, metres.
+    max_rock_radius: f64,
+    /// Reach factor of boulders in visits (equal-area squares reach further than discs).
+    grow: f64,
+}
+
+/// Boulder size classes no wider than this many footprints enter footprint-filtered grids by
+/// their expected albedo instead of one by one (fine grids; coarse ones: one footprint).
+const MEAN_FIELD_ROCK_FOOTPRINTS: f64 = 0.5;
+
+/// From this footprint on (metres; the renderer's mesh rings from 0.8 m, i.e. beyond about
+/// 43 m and any 50 m top-down image), classes no wider than one footprint enter by their mean.
+const MEAN_FIELD_COARSE_M: f64 = 0.75;
+
+impl Filter {
+    /// Point samples: exactly the unfiltered world.
+    const POINT: Filter = Filter {
+        fp: 0.0,
+        hf: 0.0,
+        first_rock_class: 0,
+        rock_mean: 0.0,
+        fresh_rock_mean: 0.0,
+        fresh_rock_d_min: f64::INFINITY,
+        max_rock_radius: 0.0,
+        grow: 1.0,
+    };
+
+    fn new(world: &World, footprint_m: f64) -> Self {
+        if !(footprint_m.is_finite() && footprint_m > 0.0) {
+            return Self::POINT;
+        }
+        let rocks = &world.rocks;
+        let mut first = 0;
+        let mut mean = 0.0;
+        // Coarse footprints take every class no wider than the footprint by its mean:
+        // visiting boulders is most of their cost.
+        let limit = if footprint_m >= MEAN_FIELD_COARSE_M {
+            footprint_m
+        } else {
+            MEAN_FIELD_ROCK_FOOTPRINTS * footprint_m
+        };
+        while let Some(d) = rocks.class_d_max(first) {
+            if d > limit {
+                break;
+            }
+            mean += rocks.class_mean_albedo(first);
+            first += 1;
+        }
+        let n = rocks.class_count();
+        Self {
+            fp: footprint_m,
+            hf: 0.5 * footprint_m,
+            first_rock_class: first,
+            rock_mean: mean,
+            fresh_rock_mean: mean * rocks.fresh_factor(),
+            fresh_rock_d_min: if n == 0 {
+                f64::INFINITY
+            } else {
+                world.cfg.fresh_crater_rock_d_min_m
+            },
+            max_rock_radius: rocks
+                .class_d_max(n.wrapping_sub(1))
+                .map_or(0.0, |d| 0.5 * d),
+            // sqrt(pi / 2): corner of the equal-area square of a disc, in radii.
+            grow: 1.2534,
+        }
+    }
+
+    /// `rect` grown by half the footprint on every side.
+    #[inline]
+    fn grown(&self, rect: [f64; 4]) -> [f64; 4] {
+        if self.hf > 0.0 {
+            let h = self.hf;
+            [rect[0] - h, rect[1] - h, rect[2] + h, rect[3] + h]
+        } else {
+            rect
+        }
+    }
+}
+
+/// Fraction (0..1) of the `fp`-wide square centred at offset `(dx, dy)` from a disc of radius
+/// `rr` that the disc covers: for discs smaller than the square, the exact overlap of the
+/// square with the disc's equal-area square (area-preserving: summed over a grid it is the
+/// disc's area); for larger discs, a linear ramp one footprint wide across the edge.
+#[inline]
+fn disc_coverage(dx: f64, dy: f64, r2: f64, rr: f64, fp: f64) -> f64 {
+    if rr >= fp {
+        let t = 0.5 + (rr - r2.sqrt()) / fp;
+        return t.clamp(0.0, 1.0);
+    }
+    // Half side of the equal-area square: rr sqrt(pi) / 2.
+    let h = rr * 0.886_226_925_452_758;
+    let hf = 0.5 * fp;
+    let lim = 2.0 * h; // h < hf here
+    let ox = (hf + h - dx.abs()).clamp(0.0, lim);
+    let oy = (hf + h - dy.abs()).clamp(0.0, lim);
+    ox * oy / (fp * fp)
+}
+
 /// Height and albedo summed over the layers of one sample.
-struct Acc {
+struct Acc<'f> {
     h: f64,
     a: f64,
     relief: bool,
     want_a: bool,
     boost: f64,
+    filt: &'f Filter,
 }
 
-impl Acc {
+impl Acc<'_> {
     /// Adds the contribution of `f` at `(x, y)` metres (nothing if `f` does not cover it);
-    /// whether `f` covers the point.
+    /// whether `f` covers the point (with a footprint: reaches into the footprint).
     #[inline]
     fn add(&mut self, f: Feature<'_>, x: f64, y: f64) -> bool {
+        if self.filt.fp > 0.0 {
+            return self.add_filtered(f, x, y);
+        }
         match f {
             Feature::Crater(c) => {
                 let (dx, dy) = (x - c.x_m, y - c.y_m);
@@ -761,6 +953,69 @@ impl Acc {
                     return true;
                 }
                 false
+            }
+        }
+    }
+
+    /// [`Acc::add`] with the footprint filter: point heights, area-averaged albedo.
+    #[inline]
+    fn add_filtered(&mut self, f: Feature<'_>, x: f64, y: f64) -> bool {
+        let filt = self.filt;
+        match f {
+            Feature::Crater(c) => {
+                let (dx, dy) = (x - c.x_m, y - c.y_m);
+                let r2 = dx * dx + dy * dy;
+                let e = c.ejecta_extent_radii * c.radius_m();
+                let reach = e + filt.hf * core::f64::consts::SQRT_2;
+                if r2 >= reach * reach {
+                    return false;
+                }
+                if self.relief && r2 < e * e {
+                    self.h += c.height_at(r2);
+                }
+                if self.want_a && c.freshness > 0.0 {
+                    self.a += c.albedo_filtered(dx, dy, self.boost, filt.fp);
+                    if filt.fresh_rock_mean > 0.0
+                        && c.freshness > 0.0
+                        && c.diameter_m >= filt.fresh_rock_d_min
+                    {
+                        // The crater's own small boulders by their expected value: full
+                        // density inside the rim, rho^-3 outside, none past the blanket.
+                        let rc = c.radius_m();
+                        let outer = e - filt.max_rock_radius;
+                        if r2 < outer * outer {
+                            let rho2 = r2 / (rc * rc);
+                            let w = if rho2 <= 1.0 {
+                                1.0
+                            } else {
+                                1.0 / (rho2 * rho2.sqrt())
+                            };
+                            self.a += filt.fresh_rock_mean * w;
+                        }
+                    }
+                }
+                true
+            }
+            Feature::Rock(r) => {
+                let (dx, dy) = (x - r.x_m, y - r.y_m);
+                let r2 = dx * dx + dy * dy;
+                let rr = 0.5 * r.diameter_m;
+                // Nothing of the disc (or its equal-area square) reaches the footprint.
+                let reach = filt.grow * rr + filt.hf * core::f64::consts::SQRT_2;
+                if r2 >= reach * reach {
+                    return false;
+                }
+                if self.relief && r2 < rr * rr {
+                    self.h += r.height_at(r2);
+                }
+                if self.want_a {
+                    let cov = disc_coverage(dx, dy, r2, rr, filt.fp);
+                    if cov > 0.0 {
+                        self.a += r.albedo_boost * cov;
+                        return true;
+                    }
+                }
+                r2 < rr * rr
             }
         }
     }

@@ -46,6 +46,8 @@ impl Rock {
 #[derive(Clone, Debug)]
 struct RockClass {
     d_max: f64,
+    /// Background rocks of this class per square metre.
+    density_per_m2: f64,
     law: PowerLaw,
     cell: f64,
     cdf_background: Vec<f64>,
@@ -62,6 +64,8 @@ pub(crate) struct RockField {
     fresh_d_min: f64,
     /// Largest rock radius, metres.
     max_radius: f64,
+    /// Fresh-crater density factor.
+    fresh_factor: f64,
 }
 
 const ROCK_LAYER: u64 = 0x2000;
@@ -78,6 +82,7 @@ impl RockField {
                     * (libm::pow(da, -cfg.rock_exponent) - libm::pow(db, -cfg.rock_exponent));
                 RockClass {
                     d_max: db,
+                    density_per_m2: per_m2,
                     law: PowerLaw::new(da, db, cfg.rock_exponent),
                     cell,
                     cdf_background: poisson_cdf(per_m2 * cell * cell),
@@ -92,6 +97,7 @@ impl RockField {
             albedo_boost: cfg.rock_albedo_boost,
             fresh_d_min: cfg.fresh_crater_rock_d_min_m,
             max_radius,
+            fresh_factor: cfg.fresh_crater_rock_factor,
         }
     }
 
@@ -122,12 +128,21 @@ impl RockField {
     }
 
     /// Calls `f(rock)` for every background rock whose footprint reaches into `rect`
-    /// (`[x0, y0, x1, y1]` metres), in a fixed order.
+    /// (`[x0, y0, x1, y1]` metres), in a fixed order, for the classes from `first_class` on
+    /// and with every rock's reach scaled by `grow` (1 for point queries; more for
+    /// footprint-filtered ones, whose equal-area squares reach `sqrt(pi / 2)` radii along
+    /// the diagonals).
     #[inline]
-    pub(crate) fn visit_rect(&self, rect: [f64; 4], mut f: impl FnMut(&Rock)) {
+    pub(crate) fn visit_rect_from(
+        &self,
+        rect: [f64; 4],
+        first_class: usize,
+        grow: f64,
+        mut f: impl FnMut(&Rock),
+    ) {
         let [x0, y0, x1, y1] = rect;
-        for cls in &self.classes {
-            let reach = 0.5 * cls.d_max;
+        for cls in self.classes.iter().skip(first_class) {
+            let reach = 0.5 * cls.d_max * grow;
             for iy in cell_of(y0 - reach, cls.cell)..=cell_of(y1 + reach, cls.cell) {
                 for ix in cell_of(x0 - reach, cls.cell)..=cell_of(x1 + reach, cls.cell) {
                     let h = cell_hash(cls.key, ix, iy);
@@ -140,7 +155,7 @@ impl RockField {
                             continue;
                         }
                         let r = self.make(cls, rx, ry, shape);
-                        let rr = 0.5 * r.diameter_m;
+                        let rr = 0.5 * r.diameter_m * grow;
                         if d2 < rr * rr {
                             f(&r);
                         }
@@ -148,6 +163,39 @@ impl RockField {
                 }
             }
         }
+    }
+
+    /// Number of size classes.
+    pub(crate) fn class_count(&self) -> usize {
+        self.classes.len()
+    }
+
+    /// Largest diameter of class `k`, metres (`None` past the last class).
+    pub(crate) fn class_d_max(&self, k: usize) -> Option<f64> {
+        self.classes.get(k).map(|c| c.d_max)
+    }
+
+    /// Expected albedo added by the background rocks of class `k` per unit area: the mean
+    /// covered fraction (density x mean disc area) times the mean albedo boost. Multiply by
+    /// the fresh-crater factor for a fresh crater's own layer inside its rim.
+    pub(crate) fn class_mean_albedo(&self, k: usize) -> f64 {
+        self.classes.get(k).map_or(0.0, |c| {
+            // Mean of d^2 by the midpoint rule over the inverse CDF (256 steps).
+            let n = 256;
+            let mean_d2 = (0..n)
+                .map(|i| {
+                    let d = c.law.diameter((i as f64 + 0.5) / n as f64);
+                    d * d
+                })
+                .sum::<f64>()
+                / n as f64;
+            c.density_per_m2 * core::f64::consts::FRAC_PI_4 * mean_d2 * self.albedo_boost
+        })
+    }
+
+    /// The fresh-crater boulder density as a multiple of the background.
+    pub(crate) fn fresh_factor(&self) -> f64 {
+        self.fresh_factor
     }
 
     /// Whether `crater` carries its own boulders.
@@ -159,17 +207,26 @@ impl RockField {
     /// Calls `f(rock)` for every boulder of fresh crater `c` whose footprint reaches into
     /// `rect`. The boulders lie wholly inside the crater's ejecta blanket, so a point a
     /// boulder covers is covered by the crater too.
+    /// Classes from `first_class` on, reach scaled by `grow` (see
+    /// [`RockField::visit_rect_from`]).
     #[inline]
-    pub(crate) fn visit_crater_rect(&self, c: &Crater, rect: [f64; 4], mut f: impl FnMut(&Rock)) {
+    pub(crate) fn visit_crater_rect_from(
+        &self,
+        c: &Crater,
+        rect: [f64; 4],
+        first_class: usize,
+        grow: f64,
+        mut f: impl FnMut(&Rock),
+    ) {
         let [x0, y0, x1, y1] = rect;
         let rc = c.radius_m();
         let outer = c.ejecta_extent_radii * rc - self.max_radius;
         if outer <= 0.0 {
             return;
         }
-        for (k, cls) in self.classes.iter().enumerate() {
+        for (k, cls) in self.classes.iter().enumerate().skip(first_class) {
             let key = mix64(c.id ^ layer_key(FRESH_ROCK_LAYER, k as u64));
-            let reach = 0.5 * cls.d_max;
+            let reach = 0.5 * cls.d_max * grow;
             for iy in cell_of(y0 - reach, cls.cell)..=cell_of(y1 + reach, cls.cell) {
                 for ix in cell_of(x0 - reach, cls.cell)..=cell_of(x1 + reach, cls.cell) {
                     let h = cell_hash(key, ix, iy);
@@ -183,7 +240,7 @@ impl RockField {
                             continue;
                         }
                         let r = self.make(cls, rx, ry, shape);
-                        let rr = 0.5 * r.diameter_m;
+                        let rr = 0.5 * r.diameter_m * grow;
                         if d2 >= rr * rr {
                             continue;
                         }
