@@ -6,6 +6,7 @@
 //! (`docs/frames.md`).
 
 pub mod dataset;
+pub mod depth;
 pub mod eval;
 pub mod fsutil;
 pub mod render;

@@ -56,7 +56,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             }
             let what = match rep {
                 "lut" => "flight LUT reprojection (flat ground)",
-                _ => "range reprojection (host reference: pixels at their true 3D points)",
+                _ => "flight range reprojection (depth images: pixels at their true 3D points)",
             };
             writeln!(md, "## {cond}, {what}\n")?;
             writeln!(md, "| matcher | R@1 | R@5 | R@10 | dense R@1 | dense R@5 | dense R@10 | median error m | p95 error m | within 1 m | within 5 m | pair AUC | pair error | border | conf. (ok / wrong) | dense ms | 441-window ms |")?;

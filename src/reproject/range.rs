@@ -1,0 +1,537 @@
+//! Range-aware reprojection: forward projection of pixels with known depth (stereo, point
+//! cloud) onto the north-up top-down grid, integer-only per pixel.
+//!
+//! The flat-ground table ([`super::Lut`]) places a point `dz` below or above the rover's
+//! ground plane at range `d` at `d * h / (h + dz)`; on relief that smears the top-down image
+//! beyond a few metres. Here each pixel goes to its true 3D point instead:
+//!
+//! `P = C + z * (a_row + i * b)`, with `C` the optical centre, `z` the pixel's depth along
+//! the optical axis, `a_row = Z + Y (v - cy) / f + X (0.5 - cx) / f` (`X, Y, Z` the
+//! camera's right, down and forward axes in the world, `v = row + 0.5`) and `b = X / f`:
+//! the un-normalized ray is linear in the column `i` along a row.
+//!
+//! Per row (set-up, `f32`): `a_row` and `b` are scaled to grid cells per depth unit and
+//! rounded to Q32 (`i64`). Per pixel (integer): three adds (the ray steps by `b`), three
+//! `i64` multiply-adds (`z * ray`: east, south, up), two shifts (cell = floor, `>> 32`),
+//! compares, and one add into a packed per-cell accumulator (`u32`: sample count in bits
+//! 24..=31, saturating at 255, gray sum in bits 0..=23). Then per cell one division
+//! (`out = sum / count`, rounded) and an optional hole-filling pass (a cell with no sample
+//! and at least [`RangeOptions::fill_min_neighbours`] of its 8 neighbours sampled gets
+//! their mean), so sampling gaps at range do not punch holes while the blind disc under
+//! the mast and unseen areas stay "no data".
+//!
+//! Memory: the caller's scratch of [`range_scratch_len`] `u32` (4 bytes per cell, 160 KB
+//! for the default 200 x 200 grid) plus the output and mask (`n * n` bytes each). No heap,
+//! no panics, no floats per pixel.
+
+use super::{classify_frame, Buffer, FrameStatus, GridSpec, ReprojectError};
+use crate::camera::{Camera, CameraParams, RoverPose, View};
+use crate::image::{ImageError, ImageView};
+
+/// Default depth unit: millimetres (`u16` depths up to 65.535 m).
+pub const DEFAULT_DEPTH_SCALE_M: f32 = 0.001;
+/// Default minimum number of sampled 8-neighbours for filling an empty cell.
+pub const DEFAULT_FILL_MIN: u8 = 5;
+
+/// Fractional bits of the fixed-point positions (grid cells, Q32 in `i64`).
+pub const POS_FRAC_BITS: u32 = 32;
+const ONE_SAMPLE: u32 = 1 << 24;
+const SUM_MASK: u32 = ONE_SAMPLE - 1;
+/// Accumulator value at which a cell's count (255) is saturated.
+const SATURATED: u32 = 255 << 24;
+/// Largest magnitude of a fixed-point position, well inside `i64`.
+const POS_LIMIT: f32 = 4.0e18;
+
+/// `u32` elements of the scratch for an `n x n` grid (`n * n`; 0 on overflow).
+pub const fn range_scratch_len(n: usize) -> usize {
+    super::table_len(n)
+}
+
+/// Bytes of the scratch for an `n x n` grid (4 per cell).
+pub const fn range_scratch_bytes(n: usize) -> usize {
+    range_scratch_len(n) * core::mem::size_of::<u32>()
+}
+
+/// A borrowed depth image: `u16` depth along the optical axis per pixel, in units of
+/// [`RangeOptions::depth_scale_m`] (millimetres by default), 0 = no depth. Row-major;
+/// `stride` is in elements (`u16`), not bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct DepthView<'a> {
+    data: &'a [u16],
+    width: usize,
+    height: usize,
+    stride: usize,
+}
+
+impl<'a> DepthView<'a> {
+    /// A tightly packed depth image (`stride == width`).
+    pub fn new(data: &'a [u16], width: usize, height: usize) -> Result<Self, ImageError> {
+        Self::with_stride(data, width, height, width)
+    }
+
+    /// A depth image whose rows start `stride` elements apart. Errors as
+    /// [`ImageView::with_stride`] (sizes in elements).
+    pub fn with_stride(
+        data: &'a [u16],
+        width: usize,
+        height: usize,
+        stride: usize,
+    ) -> Result<Self, ImageError> {
+        if width == 0 || height == 0 {
+            return Err(ImageError::ZeroSize);
+        }
+        if stride < width {
+            return Err(ImageError::StrideTooSmall { stride, width });
+        }
+        let needed = stride
+            .checked_mul(height - 1)
+            .and_then(|n| n.checked_add(width))
+            .unwrap_or(usize::MAX);
+        if data.len() < needed {
+            return Err(ImageError::BufferTooSmall {
+                needed,
+                got: data.len(),
+            });
+        }
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+        })
+    }
+
+    /// Width, pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height, pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Elements between the starts of two rows.
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// Row `y` (exactly `width` depths), or `None` outside the image.
+    pub fn row(&self, y: usize) -> Option<&'a [u16]> {
+        if y >= self.height {
+            return None;
+        }
+        let start = y * self.stride;
+        self.data.get(start..start + self.width)
+    }
+}
+
+/// Settings of the range reprojection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RangeOptions {
+    /// Metres per depth unit (0.001: millimetres). Finite, > 0.
+    pub depth_scale_m: f32,
+    /// Depths beyond this, metres along the optical axis, are ignored (`f32::INFINITY`:
+    /// none).
+    pub max_depth_m: f32,
+    /// Points lower than this above the ground under the rover, metres, are ignored
+    /// (`f32::NEG_INFINITY`: none).
+    pub min_height_m: f32,
+    /// Points higher than this above the ground under the rover, metres, are ignored (e.g.
+    /// the camera height: nothing above the camera is ground; `f32::INFINITY`: none).
+    pub max_height_m: f32,
+    /// Empty cells with at least this many sampled 8-neighbours get their mean (0: no
+    /// filling; 1..=8).
+    pub fill_min_neighbours: u8,
+}
+
+impl Default for RangeOptions {
+    /// Millimetre depths, no depth or height limits, fill cells with >= 5 of 8 neighbours.
+    fn default() -> Self {
+        Self {
+            depth_scale_m: DEFAULT_DEPTH_SCALE_M,
+            max_depth_m: f32::INFINITY,
+            min_height_m: f32::NEG_INFINITY,
+            max_height_m: f32::INFINITY,
+            fill_min_neighbours: DEFAULT_FILL_MIN,
+        }
+    }
+}
+
+/// Errors of the range reprojection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RangeError {
+    /// Camera, pose, grid, output buffer or frame size error (as the LUT path).
+    Reproject(ReprojectError),
+    /// A depth image's size differs from its frame's.
+    DepthSize {
+        /// View index (0 front, 1 right, 2 rear, 3 left).
+        view: usize,
+        /// The frame's `(width, height)`, pixels.
+        expected: (usize, usize),
+        /// The depth image's `(width, height)`, pixels.
+        got: (usize, usize),
+    },
+    /// The scratch has the wrong length.
+    ScratchSize {
+        /// `u32` elements needed ([`range_scratch_len`]).
+        needed: usize,
+        /// Elements given.
+        got: usize,
+    },
+    /// `depth_scale_m` not finite and > 0, or `max_depth_m` NaN or <= 0.
+    BadDepthScale,
+    /// Height band NaN or empty, or `fill_min_neighbours` above 8.
+    BadOption,
+    /// Grid resolution too fine for the depth scale (fixed-point positions would overflow).
+    Overflow,
+}
+
+impl From<ReprojectError> for RangeError {
+    fn from(e: ReprojectError) -> Self {
+        RangeError::Reproject(e)
+    }
+}
+
+/// What [`reproject_range`] did (also the operation counts for the flight budget).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RangeReport {
+    /// Per view (front, right, rear, left): sampled or why not (a view whose depth image
+    /// is missing keeps `Ok` here and is flagged in `depth_missing`).
+    pub status: [FrameStatus; 4],
+    /// Views with a usable frame but no depth image (not sampled).
+    pub depth_missing: [bool; 4],
+    /// Pixels read (frames sampled x their pixels): the per-pixel work.
+    pub pixels_read: u64,
+    /// Pixels that landed in a grid cell and were accumulated.
+    pub points_used: u64,
+    /// Pixels with no depth, beyond the depth or height limits, or outside the grid.
+    pub points_dropped: u64,
+    /// Cells visited by the per-cell passes (average and hole filling).
+    pub cells_visited: u64,
+    /// Cells with data (mask 255), filled cells included.
+    pub valid_cells: usize,
+    /// Cells filled from their neighbours.
+    pub filled_cells: usize,
+}
+
+/// Per-view fixed-point ray set-up.
+struct ViewSetup {
+    /// Rows of the world-to-camera rotation (camera right, down, forward in the world).
+    x: [f32; 3],
+    y: [f32; 3],
+    z: [f32; 3],
+    f: f32,
+    cx: f32,
+    cy: f32,
+}
+
+fn to_q(v: f32) -> Result<i64, RangeError> {
+    if !(v.is_finite() && v.abs() < POS_LIMIT) {
+        return Err(RangeError::Overflow);
+    }
+    Ok(libm::roundf(v) as i64)
+}
+
+/// Reprojects `frames` (front, right, rear, left; `None` for a missing camera) with their
+/// `depths` (same order and sizes) into `out` (`n * n` gray levels, north-up, 0 where no
+/// data) and `mask` (`n * n`; 255 valid, 0 no data), using `scratch`
+/// ([`range_scratch_len`]`(grid.n)` elements, overwritten). Frames must be
+/// `params.width_px x params.height_px` (any stride); black or saturated frames
+/// ([`classify_frame`]) are treated as missing and reported. `grid.max_range_m` limits the
+/// ground distance of a cell centre from the rover.
+#[allow(clippy::too_many_arguments)]
+pub fn reproject_range(
+    frames: &[Option<ImageView<'_>>; 4],
+    depths: &[Option<DepthView<'_>>; 4],
+    params: &CameraParams,
+    pose: &RoverPose,
+    grid: &GridSpec,
+    opts: &RangeOptions,
+    scratch: &mut [u32],
+    out: &mut [u8],
+    mask: &mut [u8],
+) -> Result<RangeReport, RangeError> {
+    grid.validate()?;
+    params.validate().map_err(ReprojectError::from)?;
+    pose.validate().map_err(ReprojectError::from)?;
+    if !(opts.depth_scale_m.is_finite() && opts.depth_scale_m > 0.0)
+        || opts.max_depth_m.is_nan()
+        || opts.max_depth_m <= 0.0
+    {
+        return Err(RangeError::BadDepthScale);
+    }
+    if opts.min_height_m.is_nan()
+        || opts.max_height_m.is_nan()
+        || opts.min_height_m > opts.max_height_m
+        || opts.fill_min_neighbours > 8
+    {
+        return Err(RangeError::BadOption);
+    }
+    let n = grid.n;
+    let cells = grid.cells();
+    if scratch.len() != cells {
+        return Err(RangeError::ScratchSize {
+            needed: cells,
+            got: scratch.len(),
+        });
+    }
+    for (buffer, got) in [(Buffer::Output, out.len()), (Buffer::Mask, mask.len())] {
+        if got != cells {
+            return Err(ReprojectError::BufferSize {
+                buffer,
+                needed: cells,
+                got,
+            }
+            .into());
+        }
+    }
+    let (w, h) = (params.width_px as usize, params.height_px as usize);
+    let mut report = RangeReport {
+        status: [FrameStatus::Missing; 4],
+        depth_missing: [false; 4],
+        pixels_read: 0,
+        points_used: 0,
+        points_dropped: 0,
+        cells_visited: 0,
+        valid_cells: 0,
+        filled_cells: 0,
+    };
+    for (view, (f, d)) in frames.iter().zip(depths).enumerate() {
+        let Some(f) = f else { continue };
+        if (f.width(), f.height()) != (w, h) {
+            return Err(ReprojectError::FrameSize {
+                view,
+                expected: (w, h),
+                got: (f.width(), f.height()),
+            }
+            .into());
+        }
+        if let Some(d) = d {
+            if (d.width(), d.height()) != (w, h) {
+                return Err(RangeError::DepthSize {
+                    view,
+                    expected: (w, h),
+                    got: (d.width(), d.height()),
+                });
+            }
+        }
+    }
+
+    // Limits in the fixed-point units.
+    let max_depth_units = {
+        let q = opts.max_depth_m / opts.depth_scale_m;
+        if q >= u16::MAX as f32 {
+            u16::MAX
+        } else {
+            libm::floorf(q) as u16
+        }
+    };
+    let scale_z = opts.depth_scale_m * (1u64 << POS_FRAC_BITS) as f32;
+    let scale_xy = scale_z / grid.m_per_px;
+    // Heights relative to the optical centre, metres Q32 (saturating casts keep infinities).
+    let h_lo = ((opts.min_height_m - params.height_m) * (1u64 << POS_FRAC_BITS) as f32) as i64;
+    let h_hi = ((opts.max_height_m - params.height_m) * (1u64 << POS_FRAC_BITS) as f32) as i64;
+    // Ground range limit on cell centres: (2c + 1 - n)^2 + (2r + 1 - n)^2 <= (2 R / res)^2.
+    let range_lim: Option<i64> = if grid.max_range_m.is_finite() {
+        let r = 2.0 * grid.max_range_m / grid.m_per_px;
+        if r * r < 4.0e18 {
+            Some((r * r) as i64)
+        } else {
+            None
+        }
+    } else {
+        None
+    };
+    // The optical centre is straight above the rover: n / 2 cells from the west and north
+    // edges.
+    let c_q = (n as i64) << (POS_FRAC_BITS - 1);
+    let n_i = n as i64;
+
+    scratch.fill(0);
+    for (view_i, (f, d)) in frames.iter().zip(depths).enumerate() {
+        let Some(f) = f else { continue };
+        let st = classify_frame(f);
+        report.status[view_i] = st;
+        if st != FrameStatus::Ok {
+            continue;
+        }
+        let Some(d) = d else {
+            report.depth_missing[view_i] = true;
+            continue;
+        };
+        let view = View::ALL[view_i];
+        let cam = Camera::new(params, pose, view).map_err(ReprojectError::from)?;
+        let r = cam.world_to_cam;
+        let s = ViewSetup {
+            x: [r[(0, 0)], r[(0, 1)], r[(0, 2)]],
+            y: [r[(1, 0)], r[(1, 1)], r[(1, 2)]],
+            z: [r[(2, 0)], r[(2, 1)], r[(2, 2)]],
+            f: cam.focal_px,
+            cx: cam.cx,
+            cy: cam.cy,
+        };
+        let u0 = (0.5 - s.cx) / s.f;
+        // Steps per column, Q32 per depth unit: east (cells), south (cells), up (metres).
+        let bx = s.x[0] / s.f * scale_xy;
+        let by = -s.x[1] / s.f * scale_xy;
+        let bz = s.x[2] / s.f * scale_z;
+        let (bx_q, by_q, bz_q) = (to_q(bx)?, to_q(by)?, to_q(bz)?);
+        for j in 0..h {
+            let (Some(frow), Some(drow)) = (f.row(j), d.row(j)) else {
+                break;
+            };
+            let vv = (j as f32 + 0.5 - s.cy) / s.f;
+            let a = [
+                s.z[0] + s.y[0] * vv + s.x[0] * u0,
+                s.z[1] + s.y[1] * vv + s.x[1] * u0,
+                s.z[2] + s.y[2] * vv + s.x[2] * u0,
+            ];
+            let ax = a[0] * scale_xy;
+            let ay = -a[1] * scale_xy;
+            let az = a[2] * scale_z;
+            // Both ends of the row times the largest depth must stay inside i64.
+            let end = w as f32;
+            let zmax = u16::MAX as f32;
+            for (a0, b0) in [(ax, bx), (ay, by), (az, bz)] {
+                if (libm::fabsf(a0) + libm::fabsf(b0) * end) * zmax >= POS_LIMIT {
+                    return Err(RangeError::Overflow);
+                }
+            }
+            let (mut dx, mut dy, mut dz) = (to_q(ax)?, to_q(ay)?, to_q(az)?);
+            report.pixels_read += w as u64;
+            let mut used = 0u64;
+            for (&g, &z) in frow.iter().zip(drow) {
+                let (rx, ry, rz) = (dx, dy, dz);
+                dx += bx_q;
+                dy += by_q;
+                dz += bz_q;
+                if z == 0 || z > max_depth_units {
+                    continue;
+                }
+                let zi = i64::from(z);
+                let hz = zi * rz;
+                if hz < h_lo || hz > h_hi {
+                    continue;
+                }
+                let col = (c_q + zi * rx) >> POS_FRAC_BITS;
+                let row = (c_q + zi * ry) >> POS_FRAC_BITS;
+                if col < 0 || row < 0 || col >= n_i || row >= n_i {
+                    continue;
+                }
+                if let Some(lim) = range_lim {
+                    let (ec, er) = (2 * col + 1 - n_i, 2 * row + 1 - n_i);
+                    if ec * ec + er * er > lim {
+                        continue;
+                    }
+                }
+                if let Some(acc) = scratch.get_mut((row * n_i + col) as usize) {
+                    if *acc < SATURATED {
+                        *acc += ONE_SAMPLE | u32::from(g);
+                    }
+                    used += 1;
+                }
+            }
+            report.points_used += used;
+            report.points_dropped += w as u64 - used;
+        }
+    }
+
+    // Per cell: mean of the samples.
+    let mut valid = 0usize;
+    for ((&acc, o), m) in scratch.iter().zip(out.iter_mut()).zip(mask.iter_mut()) {
+        let cnt = acc >> 24;
+        match ((acc & SUM_MASK) + cnt / 2).checked_div(cnt) {
+            Some(v) => {
+                *o = v.min(255) as u8;
+                *m = 255;
+                valid += 1;
+            }
+            None => {
+                *o = 0;
+                *m = 0;
+            }
+        }
+    }
+    report.cells_visited = cells as u64;
+    // Hole filling: validity from the accumulator (unchanged), values from sampled cells.
+    let mut filled = 0usize;
+    if opts.fill_min_neighbours > 0 {
+        let need = u32::from(opts.fill_min_neighbours);
+        for r in 0..n {
+            for c in 0..n {
+                let k = r * n + c;
+                if scratch.get(k).is_none_or(|&a| a >> 24 != 0) {
+                    continue;
+                }
+                let (mut nv, mut sum) = (0u32, 0u32);
+                for rr in r.saturating_sub(1)..(r + 2).min(n) {
+                    for cc in c.saturating_sub(1)..(c + 2).min(n) {
+                        let kk = rr * n + cc;
+                        if kk == k {
+                            continue;
+                        }
+                        if let (Some(&a), Some(&v)) = (scratch.get(kk), out.get(kk)) {
+                            if a >> 24 != 0 {
+                                nv += 1;
+                                sum += u32::from(v);
+                            }
+                        }
+                    }
+                }
+                if nv >= need {
+                    if let (Some(o), Some(m)) = (out.get_mut(k), mask.get_mut(k)) {
+                        *o = ((sum + nv / 2) / nv).min(255) as u8;
+                        *m = 255;
+                        filled += 1;
+                    }
+                }
+            }
+        }
+        report.cells_visited += cells as u64;
+    }
+    report.valid_cells = valid + filled;
+    report.filled_cells = filled;
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn accumulator_saturates_and_averages() {
+        let mut acc = 0u32;
+        for _ in 0..300 {
+            if acc < SATURATED {
+                acc += ONE_SAMPLE | 255;
+            }
+        }
+        assert_eq!(acc >> 24, 255);
+        assert_eq!((acc & SUM_MASK) / (acc >> 24), 255);
+    }
+
+    #[test]
+    fn depth_view_checks_sizes() {
+        let d = [0u16; 10];
+        assert!(DepthView::new(&d, 5, 2).is_ok());
+        assert_eq!(
+            DepthView::new(&d, 5, 3).err(),
+            Some(ImageError::BufferTooSmall {
+                needed: 15,
+                got: 10
+            })
+        );
+        assert_eq!(
+            DepthView::with_stride(&d, 5, 2, 4).err(),
+            Some(ImageError::StrideTooSmall {
+                stride: 4,
+                width: 5
+            })
+        );
+        assert_eq!(DepthView::new(&d, 0, 2).err(), Some(ImageError::ZeroSize));
+    }
+}
