@@ -319,7 +319,6 @@ mod tests {
     }
 
     #[test]
-    #[allow(clippy::field_reassign_with_default)]
     fn rejects_bad_parameters() {
         let base = CameraParams::default();
         let p = CameraParams {

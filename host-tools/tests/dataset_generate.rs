@@ -159,6 +159,30 @@ fn manifest_rows_match_zones_and_read_back() {
 }
 
 #[test]
+fn attitude_is_drawn_within_bounds_and_level_rows_are_unchanged() {
+    let level = GenerateConfig::preset(Preset::Smoke, 9);
+    let mut tilted = level.clone();
+    tilted.max_attitude_deg = 5.0;
+    let w = level.world();
+    let mut any = false;
+    for i in 0..6 {
+        let a = level.location(&w, i).unwrap();
+        let b = tilted.location(&w, i).unwrap();
+        assert_eq!((a.pitch_deg, a.roll_deg), (0.0, 0.0));
+        assert!(b.pitch_deg.abs() <= 5.0 && b.roll_deg.abs() <= 5.0);
+        any |= b.pitch_deg != 0.0;
+        // Everything else is the same draw.
+        assert_eq!(
+            (a.x_m, a.y_m, a.yaw_deg, a.sun_view),
+            (b.x_m, b.y_m, b.yaw_deg, b.sun_view)
+        );
+    }
+    assert!(any);
+    tilted.max_attitude_deg = 45.0;
+    assert!(tilted.validate().is_err());
+}
+
+#[test]
 fn flat_world_has_zero_relief_same_albedo() {
     let mut cfg = GenerateConfig::preset(Preset::Smoke, 3);
     cfg.flat = true;

@@ -126,6 +126,17 @@ fn marker_lands_where_the_camera_model_predicts_in_views_and_satellite() {
         (sc - pc as f64).abs() < 0.3 && (sr - pr as f64).abs() < 0.3,
         "satellite: marker at ({sc:.2}, {sr:.2}), georeference says ({pc:.2}, {pr:.2})"
     );
+    // Box-filtered (2 x 2 samples per pixel): same place, to a tenth of a pixel.
+    let o2 = RenderOptions {
+        ortho_supersample: 2,
+        ..o
+    };
+    let (sat2, _) = render::render_satellite_crop(&surf, x, y, 200, 0.25, sun, &o2).unwrap();
+    let (sc2, sr2, _) = bright_centroid(&sat2, 200);
+    assert!(
+        (sc2 - pc as f64).abs() < 0.3 && (sr2 - pr as f64).abs() < 0.3,
+        "supersampled satellite: marker at ({sc2:.2}, {sr2:.2}), georeference says ({pc:.2}, {pr:.2})"
+    );
 }
 
 #[test]
@@ -268,4 +279,16 @@ fn noise_is_seeded_and_deterministic() {
         render_ortho(&surf, &geo, 64, 64, Sun::default(), &o).unwrap(),
         a
     );
+}
+
+#[test]
+fn gray_table_matches_the_exact_mapping() {
+    let o = RenderOptions::default();
+    let g = render::GrayMap::new(o.gamma);
+    let mut worst = 0.0f64;
+    for k in 0..=20000 {
+        let r = k as f64 / 16000.0 - 0.1; // includes < 0 and > 1
+        worst = worst.max((g.gray(r) as f64 - o.gray(r)).abs());
+    }
+    assert!(worst < 0.05, "table off by {worst} gray levels");
 }

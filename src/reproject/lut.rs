@@ -173,10 +173,16 @@ impl<'a> Lut<'a> {
                     if w < MIN_DEPTH {
                         continue;
                     }
+                    let u = h.u[0] * dx + b[0];
+                    let v = h.v[0] * dx + b[1];
+                    // Inside the frame without a division: 0 <= u / w < xmax, same for v.
+                    if !(u >= 0.0 && u < xmax * w && v >= 0.0 && v < ymax * w) {
+                        continue;
+                    }
                     let inv = 1.0 / w;
-                    let x = (h.u[0] * dx + b[0]) * inv;
-                    let y = (h.v[0] * dx + b[1]) * inv;
-                    if !(x >= 0.0 && x < xmax && y >= 0.0 && y < ymax) {
+                    let x = u * inv;
+                    let y = v * inv;
+                    if !(x < xmax && y < ymax) {
                         continue;
                     }
                     let edge = x.min(xmax - x).min(y).min(ymax - y);

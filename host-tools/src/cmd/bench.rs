@@ -94,7 +94,8 @@ fn bench_world(args: &Args) -> anyhow::Result<()> {
         };
         t_views += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let s = render::render_satellite_crop(&world, x, y, 200, 0.25, sun, &opts)?;
+        let c = (!args.no_cache).then_some(&cache);
+        let s = render::render_satellite_crop_cached(&world, x, y, 200, 0.25, sun, &opts, c)?;
         t_sat += t.elapsed().as_secs_f64();
         std::hint::black_box((v, s));
     }

@@ -52,6 +52,9 @@ pub struct Args {
     /// Gaussian sensor noise, gray levels (standard deviation; 0 = none).
     #[arg(long, default_value_t = 0.0)]
     noise: f64,
+    /// Largest rover pitch and roll, degrees (each drawn in [-A, A] per location; 0 = level).
+    #[arg(long, default_value_t = 0.0)]
+    max_attitude: f64,
     /// Number of locations (overrides the preset; split 93/5/2 %, at least one each).
     #[arg(long)]
     count: Option<usize>,
@@ -114,6 +117,7 @@ pub fn config(args: &Args) -> anyhow::Result<GenerateConfig> {
     cfg.range = args.range || args.point_cloud;
     cfg.point_cloud = args.point_cloud;
     cfg.render.noise_sigma = args.noise;
+    cfg.max_attitude_deg = args.max_attitude;
     cfg.validate()?;
     Ok(cfg)
 }

@@ -97,10 +97,10 @@ enum What {
         #[arg(long, allow_negative_numbers = true, default_value_t = 1000.0)]
         y: f64,
         /// Side of the region, metres.
-        #[arg(long, default_value_t = 300.0)]
+        #[arg(long, default_value_t = 300.0, allow_negative_numbers = true)]
         size_m: f64,
         /// Resolution, metres per pixel.
-        #[arg(long, default_value_t = 0.25)]
+        #[arg(long, default_value_t = 0.25, allow_negative_numbers = true)]
         m_per_px: f64,
         /// Output PNG.
         #[arg(long)]

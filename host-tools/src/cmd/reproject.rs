@@ -22,7 +22,7 @@ pub struct Args {
     /// Dataset folder (written by `orbfix generate`).
     #[arg(long)]
     dataset: PathBuf,
-    /// Location id (the `id` column of manifest.jsonl), e.g. train-000001.
+    /// Location id (the `id` column of manifest.jsonl), e.g. 0000001.
     #[arg(long)]
     id: String,
     /// Top-down image to write (8-bit gray PNG, north-up; 0 where no data).

@@ -111,6 +111,10 @@ pub struct GenerateConfig {
     pub range: bool,
     /// Write a PLY point cloud per location (from the range images, every 4th pixel).
     pub point_cloud: bool,
+    /// Largest rover pitch and roll, degrees: each drawn uniformly in `[-A, A]` per location
+    /// (0: level rover).
+    #[serde(default)]
+    pub max_attitude_deg: f64,
 }
 
 impl GenerateConfig {
@@ -137,6 +141,7 @@ impl GenerateConfig {
             sun_view_azimuth: DegRange::fixed(sun.azimuth_deg),
             sun_map_elevation: DegRange::fixed(sun.elevation_deg),
             sun_map_azimuth: DegRange::fixed(sun.azimuth_deg),
+            max_attitude_deg: 0.0,
             range: false,
             point_cloud: false,
         }
@@ -153,6 +158,11 @@ impl GenerateConfig {
             .validate()
             .context("bad camera/render options")?;
         ensure!(self.total() > 0, "the dataset has no locations");
+        ensure!(
+            self.max_attitude_deg.is_finite() && (0.0..=30.0).contains(&self.max_attitude_deg),
+            "--max-attitude {} deg must be in [0, 30]",
+            self.max_attitude_deg
+        );
         ensure!(
             (1..=8192).contains(&self.satellite_px),
             "satellite size {} px must be in 1..=8192",
@@ -225,6 +235,17 @@ impl GenerateConfig {
             el(&self.sun_map_elevation, &mut rng),
             az(&self.sun_map_azimuth, &mut rng),
         )?;
+        // Drawn last, so level datasets keep their rows whatever this option.
+        let a = self.max_attitude_deg;
+        let att = |rng: &mut ChaCha8Rng| {
+            if a > 0.0 {
+                round_to(rng.random_range(-a..=a), 3)
+            } else {
+                0.0
+            }
+        };
+        let pitch = att(&mut rng);
+        let roll = att(&mut rng);
         // Round to what the manifest keeps so that a row read back renders the same.
         let x = round_to(x, 3);
         let y = round_to(y, 3);
@@ -240,6 +261,8 @@ impl GenerateConfig {
             y_m: y,
             ground_z_m: round_to(world.height_m(x, y), 4),
             yaw_deg: yaw,
+            pitch_deg: pitch,
+            roll_deg: roll,
             sun_view,
             sun_map,
             views,
@@ -283,6 +306,12 @@ pub struct ManifestRow {
     pub ground_z_m: f64,
     /// Heading, degrees clockwise from north.
     pub yaw_deg: f64,
+    /// Pitch, degrees, nose up positive (`docs/frames.md`); 0 unless `--max-attitude`.
+    #[serde(default)]
+    pub pitch_deg: f64,
+    /// Roll, degrees, right side down positive; 0 unless `--max-attitude`.
+    #[serde(default)]
+    pub roll_deg: f64,
     /// Sun of the ground views.
     pub sun_view: Sun,
     /// Sun of the satellite crop.
@@ -429,12 +458,14 @@ pub fn render_location(
     row: &ManifestRow,
     cache: Option<&render::terrain::TileCache>,
 ) -> anyhow::Result<()> {
-    let pose = render::ground_pose(world, row.x_m, row.y_m, row.yaw_deg);
+    let mut pose = render::ground_pose(world, row.x_m, row.y_m, row.yaw_deg);
+    pose.pitch_deg = row.pitch_deg as f32;
+    pose.roll_deg = row.roll_deg as f32;
     let mut opts = cfg.render;
     opts.noise_seed = mix(cfg.seed ^ 0x006E_6F69_7365, row.index as u64);
     let set = render::render_views_cached(world, &pose, row.sun_view, &opts, cache)
         .with_context(|| format!("rendering views of location {}", row.id))?;
-    let (sat, _) = render::render_satellite_crop(
+    let (sat, _) = render::render_satellite_crop_cached(
         world,
         row.x_m,
         row.y_m,
@@ -442,6 +473,7 @@ pub fn render_location(
         cfg.satellite_m_per_px,
         row.sun_map,
         &opts,
+        cache,
     )
     .with_context(|| format!("rendering satellite crop of location {}", row.id))?;
     if let Some(parent) = dir.join(&row.satellite).parent() {
@@ -592,8 +624,13 @@ pub fn combine_shards(dir: &Path) -> anyhow::Result<usize> {
         }
     }
     ensure!(
+        !counts.is_empty(),
+        "{} has no shard manifests (manifest-I-of-N.jsonl): run the shards with --shard I/N first",
+        dir.display()
+    );
+    ensure!(
         counts.len() == 1,
-        "{} must hold shard manifests of one shard count, found counts {:?}",
+        "{} holds shard manifests of several shard counts {:?}: remove the stale ones",
         dir.display(),
         counts
     );

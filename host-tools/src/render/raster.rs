@@ -70,6 +70,7 @@ pub fn render_view(
     let mut inv_z = vec![0f32; w * h];
     let mut shade = vec![0f32; w * h];
     let sdir = sun.direction();
+    let gmap = super::GrayMap::new(opts.gamma);
     let rot = cam.world_to_cam;
     let (ccx, ccy, ccz) = (
         cam.centre.x as f64,
@@ -106,19 +107,26 @@ pub fn render_view(
                 }
                 let cxx = rows[0][0] * d[0] + rows[0][1] * d[1] + rows[0][2] * d[2];
                 let cyy = rows[1][0] * d[0] + rows[1][1] * d[1] + rows[1][2] * d[2];
-                let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-9);
-                let view = [-d[0] / dist, -d[1] / dist, -d[2] / dist];
-                let n = normals[i];
-                let n = [n[0] as f64, n[1] as f64, n[2] as f64];
-                let rad = opts.radiance(g.albedo[i] as f64, n, sdir, view, lits[i] as f64);
+                // Shaded later, only if a drawn cell uses it (NaN: not yet).
                 verts[i] = Vtx {
                     u: (f * cxx / cz + pcx) as f32,
                     v: (f * cyy / cz + pcy) as f32,
                     z: cz as f32,
-                    g: opts.gray(rad) as f32,
+                    g: f32::NAN,
                 };
             }
         }
+        let shade_vertex = |i: usize| -> f32 {
+            let (c, rr) = (i % nx, i / nx);
+            let x = g.origin_x_m + (c as f64 + 0.5) * g.m_per_px;
+            let y = g.origin_y_m - (rr as f64 + 0.5) * g.m_per_px;
+            let d = [x - ccx, y - ccy, g.height_m[i] as f64 - ccz];
+            let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-9);
+            let view = [-d[0] / dist, -d[1] / dist, -d[2] / dist];
+            let n = normals[i];
+            let n = [n[0] as f64, n[1] as f64, n[2] as f64];
+            gmap.gray(opts.radiance(g.albedo[i] as f64, n, sdir, view, lits[i] as f64))
+        };
         // Hole: cells wholly inside the finer level, shrunk by one cell of this level.
         let hole = if k > 0 {
             let b = terrain.levels[k - 1].bounds;
@@ -147,6 +155,26 @@ pub fn render_view(
                     }
                 }
                 let i = rr * nx + c;
+                let idx = [i, i + 1, i + nx, i + nx + 1];
+                // Cells behind the near plane or wholly outside the image: skip unshaded.
+                let (mut u0, mut u1, mut v0, mut v1) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
+                let mut behind = false;
+                for &q in &idx {
+                    let p = verts[q];
+                    behind |= p.z < NEAR_M;
+                    u0 = u0.min(p.u);
+                    u1 = u1.max(p.u);
+                    v0 = v0.min(p.v);
+                    v1 = v1.max(p.v);
+                }
+                if behind || u1 < 0.0 || v1 < 0.0 || u0 > w as f32 || v0 > h as f32 {
+                    continue;
+                }
+                for &q in &idx {
+                    if verts[q].g.is_nan() {
+                        verts[q].g = shade_vertex(q);
+                    }
+                }
                 let a = verts[i];
                 let b = verts[i + 1];
                 let cc = verts[i + nx];

@@ -231,7 +231,14 @@ impl Terrain {
     /// Levels for an orthographic render of the raster `geo` (`w x h` pixels): level 0 has
     /// one node per pixel centre (plus an apron); level 1, coarser, reaches `reach_m` beyond
     /// it so that shadows cast from outside the raster are traced.
-    pub fn region(world: &dyn Surface, geo: &GeoRef, w: u32, h: u32, reach_m: f64) -> Self {
+    pub fn region(
+        world: &dyn Surface,
+        geo: &GeoRef,
+        w: u32,
+        h: u32,
+        reach_m: f64,
+        cache: Option<&TileCache>,
+    ) -> Self {
         let m = geo.m_per_px as f64;
         let ox = geo.origin_x_m as f64;
         let oy = geo.origin_y_m as f64;
@@ -269,8 +276,25 @@ impl Terrain {
         let half = 0.5 * (bounds[2] - bounds[0]).max(bounds[3] - bounds[1]) + reach_m;
         // Coarse surround for shadows cast from outside: about 128 nodes across, never finer
         // than 2 px; the raster itself is not re-sampled.
-        let m1 = (2.0 * half / 128.0).max(2.0 * m);
-        let l1 = sample_square(world, cx, cy, half, m1, Some(bounds));
+        // Spacing 0.1 m x 2^k so that the surround's tiles are shared through a cache.
+        let need = (2.0 * half / 128.0).max(2.0 * m);
+        let mut m1 = 0.1;
+        while m1 < need {
+            m1 *= 2.0;
+        }
+        let own;
+        let cache = match cache {
+            Some(c) => c,
+            None => {
+                own = TileCache::new(1 << 20);
+                &own
+            }
+        };
+        let l1 = if m1 >= CACHE_MIN_M {
+            cache.square(world, cx, cy, half, m1, Some(bounds))
+        } else {
+            sample_square(world, cx, cy, half, m1, Some(bounds))
+        };
         Self {
             levels: vec![l0, l1],
         }
