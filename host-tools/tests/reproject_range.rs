@@ -228,6 +228,19 @@ fn bad_inputs_give_typed_errors_and_missing_views_are_reported() {
         &mut mask,
     );
     assert_eq!(e, Err(RangeError::Reproject(ReprojectError::BadGridSize)));
+    // 0.1 mm cells with millimetre depths: the Q32 rays would not fit i32.
+    let e = reproject_range(
+        &[Some(f), None, None, None],
+        &[Some(d), None, None, None],
+        &params,
+        &pose,
+        &GridSpec::new(32, 0.0001),
+        &opts,
+        &mut scratch,
+        &mut out,
+        &mut mask,
+    );
+    assert_eq!(e, Err(RangeError::Overflow));
     // Front usable with depth, right black, rear without depth, left missing.
     let rep = reproject_range(
         &[Some(f), Some(fd), Some(f), None],

@@ -10,9 +10,10 @@
 //! camera's right, down and forward axes in the world, `v = row + 0.5`) and `b = X / f`:
 //! the un-normalized ray is linear in the column `i` along a row.
 //!
-//! Per row (set-up, `f32`): `a_row` and `b` are scaled to grid cells per depth unit and
-//! rounded to Q32 (`i64`). Per pixel (integer): three adds (the ray steps by `b`), three
-//! `i64` multiply-adds (`z * ray`: east, south, up), two shifts (cell = floor, `>> 32`),
+//! Per row (set-up, `f32`): `a_row` and `b` are scaled to grid cells (east, south) and
+//! metres (up) per depth unit and rounded to Q32 in `i32`. Per pixel (integer): three
+//! `i32` adds (the ray steps by `b`), three 32 x 32 -> 64 multiply-adds (`z * ray`: east,
+//! south, up; `SMLAL` on Cortex-M), two shifts (cell = floor, `>> 32`),
 //! compares, and one add into a packed per-cell accumulator (`u32`: sample count in bits
 //! 24..=31, saturating at 255, gray sum in bits 0..=23). Then per cell one division
 //! (`out = sum / count`, rounded) and an optional hole-filling pass (a cell with no sample
@@ -39,8 +40,10 @@ const ONE_SAMPLE: u32 = 1 << 24;
 const SUM_MASK: u32 = ONE_SAMPLE - 1;
 /// Accumulator value at which a cell's count (255) is saturated.
 const SATURATED: u32 = 255 << 24;
-/// Largest magnitude of a fixed-point position, well inside `i64`.
-const POS_LIMIT: f32 = 4.0e18;
+/// Largest magnitude of a Q32 ray component (per depth unit) along a row: `2^30`, so that
+/// rays fit `i32` with margin for the per-column steps and `z * ray` is one 32 x 32 -> 64
+/// multiply-accumulate (`SMLAL` on Cortex-M).
+const RAY_LIMIT: f32 = 1_073_741_824.0;
 
 /// `u32` elements of the scratch for an `n x n` grid (`n * n`; 0 on overflow).
 pub const fn range_scratch_len(n: usize) -> usize {
@@ -185,7 +188,9 @@ pub enum RangeError {
     BadDepthScale,
     /// Height band NaN or empty, or `fill_min_neighbours` above 8.
     BadOption,
-    /// Grid resolution too fine for the depth scale (fixed-point positions would overflow).
+    /// Grid resolution too fine for the depth scale: a ray component exceeds `2^30` in
+    /// Q32 cells per depth unit, i.e. `m_per_px` below about `2 * |ray| * depth_scale_m`
+    /// (about 3 mm per cell with millimetre depths and the default rig).
     Overflow,
 }
 
@@ -229,11 +234,12 @@ struct ViewSetup {
     cy: f32,
 }
 
-fn to_q(v: f32) -> Result<i64, RangeError> {
-    if !(v.is_finite() && v.abs() < POS_LIMIT) {
+/// Rounds a Q32 ray component to `i32` (rays are bounded by [`RAY_LIMIT`]).
+fn to_q(v: f32) -> Result<i32, RangeError> {
+    if !(v.is_finite() && libm::fabsf(v) < RAY_LIMIT) {
         return Err(RangeError::Overflow);
     }
-    Ok(libm::roundf(v) as i64)
+    Ok(libm::roundf(v) as i32)
 }
 
 /// Reprojects `frames` (front, right, rear, left; `None` for a missing camera) with their
@@ -393,11 +399,11 @@ pub fn reproject_range(
             let ax = a[0] * scale_xy;
             let ay = -a[1] * scale_xy;
             let az = a[2] * scale_z;
-            // Both ends of the row times the largest depth must stay inside i64.
+            // The ray at both ends of the row must stay inside RAY_LIMIT (so i32 steps
+            // cannot overflow: the rounding drift over a row is below `w` units).
             let end = w as f32;
-            let zmax = u16::MAX as f32;
             for (a0, b0) in [(ax, bx), (ay, by), (az, bz)] {
-                if (libm::fabsf(a0) + libm::fabsf(b0) * end) * zmax >= POS_LIMIT {
+                if libm::fabsf(a0) + libm::fabsf(b0) * end >= RAY_LIMIT {
                     return Err(RangeError::Overflow);
                 }
             }
@@ -406,19 +412,19 @@ pub fn reproject_range(
             let mut used = 0u64;
             for (&g, &z) in frow.iter().zip(drow) {
                 let (rx, ry, rz) = (dx, dy, dz);
-                dx += bx_q;
-                dy += by_q;
-                dz += bz_q;
+                dx = dx.wrapping_add(bx_q);
+                dy = dy.wrapping_add(by_q);
+                dz = dz.wrapping_add(bz_q);
                 if z == 0 || z > max_depth_units {
                     continue;
                 }
                 let zi = i64::from(z);
-                let hz = zi * rz;
+                let hz = zi * i64::from(rz);
                 if hz < h_lo || hz > h_hi {
                     continue;
                 }
-                let col = (c_q + zi * rx) >> POS_FRAC_BITS;
-                let row = (c_q + zi * ry) >> POS_FRAC_BITS;
+                let col = (c_q + zi * i64::from(rx)) >> POS_FRAC_BITS;
+                let row = (c_q + zi * i64::from(ry)) >> POS_FRAC_BITS;
                 if col < 0 || row < 0 || col >= n_i || row >= n_i {
                     continue;
                 }
