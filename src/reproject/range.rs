@@ -223,17 +223,6 @@ pub struct RangeReport {
     pub filled_cells: usize,
 }
 
-/// Per-view fixed-point ray set-up.
-struct ViewSetup {
-    /// Rows of the world-to-camera rotation (camera right, down, forward in the world).
-    x: [f32; 3],
-    y: [f32; 3],
-    z: [f32; 3],
-    f: f32,
-    cx: f32,
-    cy: f32,
-}
-
 /// Rounds a Q32 ray component to `i32` (rays are bounded by [`RAY_LIMIT`]).
 fn to_q(v: f32) -> Result<i32, RangeError> {
     if !(v.is_finite() && libm::fabsf(v) < RAY_LIMIT) {
@@ -242,28 +231,7 @@ fn to_q(v: f32) -> Result<i32, RangeError> {
     Ok(libm::roundf(v) as i32)
 }
 
-/// Reprojects `frames` (front, right, rear, left; `None` for a missing camera) with their
-/// `depths` (same order and sizes) into `out` (`n * n` gray levels, north-up, 0 where no
-/// data) and `mask` (`n * n`; 255 valid, 0 no data), using `scratch`
-/// ([`range_scratch_len`]`(grid.n)` elements, overwritten). Frames must be
-/// `params.width_px x params.height_px` (any stride); black or saturated frames
-/// ([`classify_frame`]) are treated as missing and reported. `grid.max_range_m` limits the
-/// ground distance of a cell centre from the rover.
-#[allow(clippy::too_many_arguments)]
-pub fn reproject_range(
-    frames: &[Option<ImageView<'_>>; 4],
-    depths: &[Option<DepthView<'_>>; 4],
-    params: &CameraParams,
-    pose: &RoverPose,
-    grid: &GridSpec,
-    opts: &RangeOptions,
-    scratch: &mut [u32],
-    out: &mut [u8],
-    mask: &mut [u8],
-) -> Result<RangeReport, RangeError> {
-    grid.validate()?;
-    params.validate().map_err(ReprojectError::from)?;
-    pose.validate().map_err(ReprojectError::from)?;
+fn validate_options(opts: &RangeOptions) -> Result<(), RangeError> {
     if !(opts.depth_scale_m.is_finite() && opts.depth_scale_m > 0.0)
         || opts.max_depth_m.is_nan()
         || opts.max_depth_m <= 0.0
@@ -277,124 +245,179 @@ pub fn reproject_range(
     {
         return Err(RangeError::BadOption);
     }
-    let n = grid.n;
-    let cells = grid.cells();
-    if scratch.len() != cells {
-        return Err(RangeError::ScratchSize {
-            needed: cells,
-            got: scratch.len(),
-        });
-    }
-    for (buffer, got) in [(Buffer::Output, out.len()), (Buffer::Mask, mask.len())] {
-        if got != cells {
-            return Err(ReprojectError::BufferSize {
-                buffer,
+    Ok(())
+}
+
+/// Incremental range reprojection for callers that produce one view (or one depth image)
+/// at a time: [`RangeAccumulator::new`] clears the scratch, [`RangeAccumulator::add_view`]
+/// places one view's pixels, [`RangeAccumulator::finish`] averages, fills holes and writes
+/// the top-down image. [`reproject_range`] does all three for four views.
+#[derive(Debug)]
+pub struct RangeAccumulator<'s> {
+    scratch: &'s mut [u32],
+    params: CameraParams,
+    pose: RoverPose,
+    grid: GridSpec,
+    opts: RangeOptions,
+    report: RangeReport,
+}
+
+impl<'s> RangeAccumulator<'s> {
+    /// Checks the parameters and clears `scratch` ([`range_scratch_len`]`(grid.n)`
+    /// elements).
+    pub fn new(
+        params: &CameraParams,
+        pose: &RoverPose,
+        grid: &GridSpec,
+        opts: &RangeOptions,
+        scratch: &'s mut [u32],
+    ) -> Result<Self, RangeError> {
+        grid.validate()?;
+        params.validate().map_err(ReprojectError::from)?;
+        pose.validate().map_err(ReprojectError::from)?;
+        validate_options(opts)?;
+        let cells = grid.cells();
+        if scratch.len() != cells {
+            return Err(RangeError::ScratchSize {
                 needed: cells,
-                got,
-            }
-            .into());
+                got: scratch.len(),
+            });
         }
+        scratch.fill(0);
+        Ok(Self {
+            scratch,
+            params: *params,
+            pose: *pose,
+            grid: *grid,
+            opts: *opts,
+            report: RangeReport {
+                status: [FrameStatus::Missing; 4],
+                depth_missing: [false; 4],
+                pixels_read: 0,
+                points_used: 0,
+                points_dropped: 0,
+                cells_visited: 0,
+                valid_cells: 0,
+                filled_cells: 0,
+            },
+        })
     }
-    let (w, h) = (params.width_px as usize, params.height_px as usize);
-    let mut report = RangeReport {
-        status: [FrameStatus::Missing; 4],
-        depth_missing: [false; 4],
-        pixels_read: 0,
-        points_used: 0,
-        points_dropped: 0,
-        cells_visited: 0,
-        valid_cells: 0,
-        filled_cells: 0,
-    };
-    for (view, (f, d)) in frames.iter().zip(depths).enumerate() {
-        let Some(f) = f else { continue };
-        if (f.width(), f.height()) != (w, h) {
+
+    /// Checks that `frame` and `depth` have the rig's size (errors as [`reproject_range`]).
+    fn check_sizes(
+        &self,
+        view: View,
+        frame: &ImageView<'_>,
+        depth: Option<&DepthView<'_>>,
+    ) -> Result<(), RangeError> {
+        let (w, h) = (
+            self.params.width_px as usize,
+            self.params.height_px as usize,
+        );
+        if (frame.width(), frame.height()) != (w, h) {
             return Err(ReprojectError::FrameSize {
-                view,
+                view: view.index(),
                 expected: (w, h),
-                got: (f.width(), f.height()),
+                got: (frame.width(), frame.height()),
             }
             .into());
         }
-        if let Some(d) = d {
+        if let Some(d) = depth {
             if (d.width(), d.height()) != (w, h) {
                 return Err(RangeError::DepthSize {
-                    view,
+                    view: view.index(),
                     expected: (w, h),
                     got: (d.width(), d.height()),
                 });
             }
         }
+        Ok(())
     }
 
-    // Limits in the fixed-point units.
-    let max_depth_units = {
-        let q = opts.max_depth_m / opts.depth_scale_m;
-        if q >= u16::MAX as f32 {
-            u16::MAX
-        } else {
-            libm::floorf(q) as u16
+    /// Places the pixels of `view`'s `frame` at the points given by `depth` (same size as
+    /// the frame, `params.width_px x params.height_px`). Returns the frame's status: a
+    /// black or saturated frame, or a missing depth image, adds nothing (recorded in the
+    /// report). Adding a view twice accumulates it twice.
+    pub fn add_view(
+        &mut self,
+        view: View,
+        frame: &ImageView<'_>,
+        depth: Option<&DepthView<'_>>,
+    ) -> Result<FrameStatus, RangeError> {
+        self.check_sizes(view, frame, depth)?;
+        let vi = view.index();
+        let st = classify_frame(frame);
+        if let Some(s) = self.report.status.get_mut(vi) {
+            *s = st;
         }
-    };
-    let scale_z = opts.depth_scale_m * (1u64 << POS_FRAC_BITS) as f32;
-    let scale_xy = scale_z / grid.m_per_px;
-    // Heights relative to the optical centre, metres Q32 (saturating casts keep infinities).
-    let h_lo = ((opts.min_height_m - params.height_m) * (1u64 << POS_FRAC_BITS) as f32) as i64;
-    let h_hi = ((opts.max_height_m - params.height_m) * (1u64 << POS_FRAC_BITS) as f32) as i64;
-    // Ground range limit on cell centres: (2c + 1 - n)^2 + (2r + 1 - n)^2 <= (2 R / res)^2.
-    let range_lim: Option<i64> = if grid.max_range_m.is_finite() {
-        let r = 2.0 * grid.max_range_m / grid.m_per_px;
-        if r * r < 4.0e18 {
-            Some((r * r) as i64)
+        if st != FrameStatus::Ok {
+            return Ok(st);
+        }
+        let Some(d) = depth else {
+            if let Some(m) = self.report.depth_missing.get_mut(vi) {
+                *m = true;
+            }
+            return Ok(st);
+        };
+        let (params, grid, opts) = (&self.params, &self.grid, &self.opts);
+        let (w, h) = (params.width_px as usize, params.height_px as usize);
+        let n = grid.n;
+        // Limits in the fixed-point units.
+        let max_depth_units = {
+            let q = opts.max_depth_m / opts.depth_scale_m;
+            if q >= u16::MAX as f32 {
+                u16::MAX
+            } else {
+                libm::floorf(q) as u16
+            }
+        };
+        let one = (1u64 << POS_FRAC_BITS) as f32;
+        let scale_z = opts.depth_scale_m * one;
+        let scale_xy = scale_z / grid.m_per_px;
+        // Heights relative to the optical centre, metres Q32 (saturating casts keep
+        // infinities).
+        let h_lo = ((opts.min_height_m - params.height_m) * one) as i64;
+        let h_hi = ((opts.max_height_m - params.height_m) * one) as i64;
+        // Ground range limit on cell centres: (2c + 1 - n)^2 + (2r + 1 - n)^2 <= (2 R/res)^2.
+        let range_lim: Option<i64> = if grid.max_range_m.is_finite() {
+            let r = 2.0 * grid.max_range_m / grid.m_per_px;
+            if r * r < 4.0e18 {
+                Some((r * r) as i64)
+            } else {
+                None
+            }
         } else {
             None
-        }
-    } else {
-        None
-    };
-    // The optical centre is straight above the rover: n / 2 cells from the west and north
-    // edges.
-    let c_q = (n as i64) << (POS_FRAC_BITS - 1);
-    let n_i = n as i64;
+        };
+        // The optical centre is straight above the rover: n / 2 cells from the west and
+        // north edges.
+        let c_q = (n as i64) << (POS_FRAC_BITS - 1);
+        let n_i = n as i64;
 
-    scratch.fill(0);
-    for (view_i, (f, d)) in frames.iter().zip(depths).enumerate() {
-        let Some(f) = f else { continue };
-        let st = classify_frame(f);
-        report.status[view_i] = st;
-        if st != FrameStatus::Ok {
-            continue;
-        }
-        let Some(d) = d else {
-            report.depth_missing[view_i] = true;
-            continue;
-        };
-        let view = View::ALL[view_i];
-        let cam = Camera::new(params, pose, view).map_err(ReprojectError::from)?;
+        let cam = Camera::new(params, &self.pose, view).map_err(ReprojectError::from)?;
         let r = cam.world_to_cam;
-        let s = ViewSetup {
-            x: [r[(0, 0)], r[(0, 1)], r[(0, 2)]],
-            y: [r[(1, 0)], r[(1, 1)], r[(1, 2)]],
-            z: [r[(2, 0)], r[(2, 1)], r[(2, 2)]],
-            f: cam.focal_px,
-            cx: cam.cx,
-            cy: cam.cy,
-        };
-        let u0 = (0.5 - s.cx) / s.f;
+        // Camera right, down, forward axes in the world.
+        let ax_r = [r[(0, 0)], r[(0, 1)], r[(0, 2)]];
+        let ax_d = [r[(1, 0)], r[(1, 1)], r[(1, 2)]];
+        let ax_f = [r[(2, 0)], r[(2, 1)], r[(2, 2)]];
+        let f = cam.focal_px;
+        let u0 = (0.5 - cam.cx) / f;
         // Steps per column, Q32 per depth unit: east (cells), south (cells), up (metres).
-        let bx = s.x[0] / s.f * scale_xy;
-        let by = -s.x[1] / s.f * scale_xy;
-        let bz = s.x[2] / s.f * scale_z;
+        let bx = ax_r[0] / f * scale_xy;
+        let by = -ax_r[1] / f * scale_xy;
+        let bz = ax_r[2] / f * scale_z;
         let (bx_q, by_q, bz_q) = (to_q(bx)?, to_q(by)?, to_q(bz)?);
+        let scratch = &mut *self.scratch;
+        let (mut used_all, mut read_all) = (0u64, 0u64);
         for j in 0..h {
-            let (Some(frow), Some(drow)) = (f.row(j), d.row(j)) else {
+            let (Some(frow), Some(drow)) = (frame.row(j), d.row(j)) else {
                 break;
             };
-            let vv = (j as f32 + 0.5 - s.cy) / s.f;
+            let vv = (j as f32 + 0.5 - cam.cy) / f;
             let a = [
-                s.z[0] + s.y[0] * vv + s.x[0] * u0,
-                s.z[1] + s.y[1] * vv + s.x[1] * u0,
-                s.z[2] + s.y[2] * vv + s.x[2] * u0,
+                ax_f[0] + ax_d[0] * vv + ax_r[0] * u0,
+                ax_f[1] + ax_d[1] * vv + ax_r[1] * u0,
+                ax_f[2] + ax_d[2] * vv + ax_r[2] * u0,
             ];
             let ax = a[0] * scale_xy;
             let ay = -a[1] * scale_xy;
@@ -408,7 +431,7 @@ pub fn reproject_range(
                 }
             }
             let (mut dx, mut dy, mut dz) = (to_q(ax)?, to_q(ay)?, to_q(az)?);
-            report.pixels_read += w as u64;
+            read_all += w as u64;
             let mut used = 0u64;
             for (&g, &z) in frow.iter().zip(drow) {
                 let (rx, ry, rz) = (dx, dy, dz);
@@ -441,67 +464,135 @@ pub fn reproject_range(
                     used += 1;
                 }
             }
-            report.points_used += used;
-            report.points_dropped += w as u64 - used;
+            used_all += used;
         }
+        self.report.pixels_read += read_all;
+        self.report.points_used += used_all;
+        self.report.points_dropped += read_all - used_all;
+        Ok(st)
     }
 
-    // Per cell: mean of the samples.
-    let mut valid = 0usize;
-    for ((&acc, o), m) in scratch.iter().zip(out.iter_mut()).zip(mask.iter_mut()) {
-        let cnt = acc >> 24;
-        match ((acc & SUM_MASK) + cnt / 2).checked_div(cnt) {
-            Some(v) => {
-                *o = v.min(255) as u8;
-                *m = 255;
-                valid += 1;
-            }
-            None => {
-                *o = 0;
-                *m = 0;
+    /// Averages the samples per cell into `out` (`n * n` gray levels, north-up, 0 where no
+    /// data) and `mask` (`n * n`; 255 valid, 0 no data), fills holes, and returns the
+    /// report of the whole reprojection.
+    pub fn finish(self, out: &mut [u8], mask: &mut [u8]) -> Result<RangeReport, RangeError> {
+        let n = self.grid.n;
+        let cells = self.grid.cells();
+        for (buffer, got) in [(Buffer::Output, out.len()), (Buffer::Mask, mask.len())] {
+            if got != cells {
+                return Err(ReprojectError::BufferSize {
+                    buffer,
+                    needed: cells,
+                    got,
+                }
+                .into());
             }
         }
-    }
-    report.cells_visited = cells as u64;
-    // Hole filling: validity from the accumulator (unchanged), values from sampled cells.
-    let mut filled = 0usize;
-    if opts.fill_min_neighbours > 0 {
-        let need = u32::from(opts.fill_min_neighbours);
-        for r in 0..n {
-            for c in 0..n {
-                let k = r * n + c;
-                if scratch.get(k).is_none_or(|&a| a >> 24 != 0) {
-                    continue;
+        let scratch = &*self.scratch;
+        let mut report = self.report;
+        // Per cell: mean of the samples.
+        let mut valid = 0usize;
+        for ((&acc, o), m) in scratch.iter().zip(out.iter_mut()).zip(mask.iter_mut()) {
+            let cnt = acc >> 24;
+            match ((acc & SUM_MASK) + cnt / 2).checked_div(cnt) {
+                Some(v) => {
+                    *o = v.min(255) as u8;
+                    *m = 255;
+                    valid += 1;
                 }
-                let (mut nv, mut sum) = (0u32, 0u32);
-                for rr in r.saturating_sub(1)..(r + 2).min(n) {
-                    for cc in c.saturating_sub(1)..(c + 2).min(n) {
-                        let kk = rr * n + cc;
-                        if kk == k {
-                            continue;
-                        }
-                        if let (Some(&a), Some(&v)) = (scratch.get(kk), out.get(kk)) {
-                            if a >> 24 != 0 {
-                                nv += 1;
-                                sum += u32::from(v);
-                            }
-                        }
-                    }
-                }
-                if nv >= need {
-                    if let (Some(o), Some(m)) = (out.get_mut(k), mask.get_mut(k)) {
-                        *o = ((sum + nv / 2) / nv).min(255) as u8;
-                        *m = 255;
-                        filled += 1;
-                    }
+                None => {
+                    *o = 0;
+                    *m = 0;
                 }
             }
         }
         report.cells_visited += cells as u64;
+        // Hole filling: validity from the accumulator (unchanged), values from sampled
+        // cells.
+        let mut filled = 0usize;
+        if self.opts.fill_min_neighbours > 0 {
+            let need = u32::from(self.opts.fill_min_neighbours);
+            for r in 0..n {
+                for c in 0..n {
+                    let k = r * n + c;
+                    if scratch.get(k).is_none_or(|&a| a >> 24 != 0) {
+                        continue;
+                    }
+                    let (mut nv, mut sum) = (0u32, 0u32);
+                    for rr in r.saturating_sub(1)..(r + 2).min(n) {
+                        for cc in c.saturating_sub(1)..(c + 2).min(n) {
+                            let kk = rr * n + cc;
+                            if kk == k {
+                                continue;
+                            }
+                            if let (Some(&a), Some(&v)) = (scratch.get(kk), out.get(kk)) {
+                                if a >> 24 != 0 {
+                                    nv += 1;
+                                    sum += u32::from(v);
+                                }
+                            }
+                        }
+                    }
+                    if nv >= need {
+                        if let (Some(o), Some(m)) = (out.get_mut(k), mask.get_mut(k)) {
+                            *o = ((sum + nv / 2) / nv).min(255) as u8;
+                            *m = 255;
+                            filled += 1;
+                        }
+                    }
+                }
+            }
+            report.cells_visited += cells as u64;
+        }
+        report.valid_cells = valid + filled;
+        report.filled_cells = filled;
+        Ok(report)
     }
-    report.valid_cells = valid + filled;
-    report.filled_cells = filled;
-    Ok(report)
+}
+
+/// Reprojects `frames` (front, right, rear, left; `None` for a missing camera) with their
+/// `depths` (same order and sizes) into `out` (`n * n` gray levels, north-up, 0 where no
+/// data) and `mask` (`n * n`; 255 valid, 0 no data), using `scratch`
+/// ([`range_scratch_len`]`(grid.n)` elements, overwritten). Frames must be
+/// `params.width_px x params.height_px` (any stride); black or saturated frames
+/// ([`classify_frame`]) are treated as missing and reported. `grid.max_range_m` limits the
+/// ground distance of a cell centre from the rover. Every size is checked before any
+/// pixel is read.
+#[allow(clippy::too_many_arguments)]
+pub fn reproject_range(
+    frames: &[Option<ImageView<'_>>; 4],
+    depths: &[Option<DepthView<'_>>; 4],
+    params: &CameraParams,
+    pose: &RoverPose,
+    grid: &GridSpec,
+    opts: &RangeOptions,
+    scratch: &mut [u32],
+    out: &mut [u8],
+    mask: &mut [u8],
+) -> Result<RangeReport, RangeError> {
+    let mut acc = RangeAccumulator::new(params, pose, grid, opts, scratch)?;
+    let cells = grid.cells();
+    for (buffer, got) in [(Buffer::Output, out.len()), (Buffer::Mask, mask.len())] {
+        if got != cells {
+            return Err(ReprojectError::BufferSize {
+                buffer,
+                needed: cells,
+                got,
+            }
+            .into());
+        }
+    }
+    for ((f, d), view) in frames.iter().zip(depths).zip(View::ALL) {
+        if let Some(f) = f {
+            acc.check_sizes(view, f, d.as_ref())?;
+        }
+    }
+    for ((f, d), view) in frames.iter().zip(depths).zip(View::ALL) {
+        if let Some(f) = f {
+            acc.add_view(view, f, d.as_ref())?;
+        }
+    }
+    acc.finish(out, mask)
 }
 
 #[cfg(test)]
