@@ -302,6 +302,59 @@ fn bad_inputs_give_typed_errors_and_missing_views_are_reported() {
     );
     assert_eq!(rep.depth_missing, [false, false, true, false]);
     assert_eq!(rep.pixels_read, 48);
+    // Height band and range limit: dropping points above the camera (top rows of a 3 m
+    // depth wall) removes some; a 1 m range limit removes all (every point is >= 2.5 m).
+    let front = [Some(f), None, None, None];
+    let fdepth = [Some(d), None, None, None];
+    let mut run = |g: &GridSpec, o: &RangeOptions| {
+        reproject_range(
+            &front,
+            &fdepth,
+            &params,
+            &pose,
+            g,
+            o,
+            &mut scratch,
+            &mut out,
+            &mut mask,
+        )
+        .unwrap()
+    };
+    let all = run(&grid, &opts);
+    let low = run(
+        &grid,
+        &RangeOptions {
+            max_height_m: 2.0,
+            ..opts
+        },
+    );
+    assert!(low.points_used > 0 && low.points_used < all.points_used);
+    let near = GridSpec {
+        max_range_m: 1.0,
+        ..grid
+    };
+    assert_eq!(run(&near, &opts).points_used, 0);
+    assert_eq!(
+        run(
+            &near,
+            &RangeOptions {
+                max_height_m: 2.0,
+                ..opts
+            }
+        )
+        .points_used,
+        0
+    );
+    let far = GridSpec {
+        max_range_m: 100.0,
+        ..grid
+    };
+    assert_eq!(run(&far, &opts).points_used, all.points_used);
+    let shallow = RangeOptions {
+        max_depth_m: 2.9,
+        ..opts
+    };
+    assert_eq!(run(&grid, &shallow).points_used, 0);
     // Depth 3 m straight ahead (north, 15 deg down, 90 deg HFOV): everything north of the
     // rover, within the 8 m grid, so only cells in the northern half have data.
     assert!(rep.valid_cells > 0);

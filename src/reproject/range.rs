@@ -248,6 +248,79 @@ fn validate_options(opts: &RangeOptions) -> Result<(), RangeError> {
     Ok(())
 }
 
+/// Per-pixel limits of one view, in the fixed-point units of [`place_row`].
+struct Limits {
+    /// Largest depth, depth units (0 is always "no depth").
+    max_depth: u16,
+    /// Height band relative to the optical centre, metres Q32.
+    h_lo: i64,
+    h_hi: i64,
+    /// Optical centre from the grid's west / north edge, cells Q32 (`n / 2`).
+    c_q: i64,
+    /// Grid side, cells (at most 65535).
+    n: u32,
+    /// `(2R / res)^2` for the range test on cell centres.
+    range_lim: i64,
+}
+
+/// Places one row: pixel `i` has the ray `ray + i * step` (Q32 per depth unit: cells east,
+/// cells south, metres up). Returns the pixels accumulated. `HEIGHT` / `RANGE` switch the
+/// height-band and range tests on.
+#[inline(always)]
+fn place_row<const HEIGHT: bool, const RANGE: bool>(
+    frow: &[u8],
+    drow: &[u16],
+    ray: [i32; 3],
+    step: [i32; 3],
+    lim: &Limits,
+    scratch: &mut [u32],
+) -> u32 {
+    let [mut dx, mut dy, mut dz] = ray;
+    let [bx, by, bz] = step;
+    let (max_depth, n, c_q) = (lim.max_depth, lim.n, lim.c_q);
+    let mut used = 0u32;
+    for (&g, &z) in frow.iter().zip(drow) {
+        let (rx, ry, rz) = (dx, dy, dz);
+        dx = dx.wrapping_add(bx);
+        dy = dy.wrapping_add(by);
+        if HEIGHT {
+            dz = dz.wrapping_add(bz);
+        }
+        // One compare for "no depth" (0 wraps to 65535) and "too far".
+        if z.wrapping_sub(1) >= max_depth {
+            continue;
+        }
+        let zi = i64::from(z);
+        if HEIGHT {
+            let hz = zi * i64::from(rz);
+            if hz < lim.h_lo || hz > lim.h_hi {
+                continue;
+            }
+        }
+        // Positions are below 2^46 (rays < 2^30, depths < 2^16), so the cell index (the
+        // high word) fits i32; negative cells wrap to huge u32 and fail the bound.
+        let col = ((c_q + zi * i64::from(rx)) >> POS_FRAC_BITS) as i32 as u32;
+        let row = ((c_q + zi * i64::from(ry)) >> POS_FRAC_BITS) as i32 as u32;
+        if col >= n || row >= n {
+            continue;
+        }
+        if RANGE {
+            let ec = 2 * i64::from(col) + 1 - i64::from(n);
+            let er = 2 * i64::from(row) + 1 - i64::from(n);
+            if ec * ec + er * er > lim.range_lim {
+                continue;
+            }
+        }
+        if let Some(acc) = scratch.get_mut(row as usize * n as usize + col as usize) {
+            if *acc < SATURATED {
+                *acc += ONE_SAMPLE | u32::from(g);
+            }
+            used += 1;
+        }
+    }
+    used
+}
+
 /// Incremental range reprojection for callers that produce one view (or one depth image)
 /// at a time: [`RangeAccumulator::new`] clears the scratch, [`RangeAccumulator::add_view`]
 /// places one view's pixels, [`RangeAccumulator::finish`] averages, fills holes and writes
@@ -391,8 +464,15 @@ impl<'s> RangeAccumulator<'s> {
         };
         // The optical centre is straight above the rover: n / 2 cells from the west and
         // north edges.
-        let c_q = (n as i64) << (POS_FRAC_BITS - 1);
-        let n_i = n as i64;
+        let height_band = h_lo > i64::MIN || h_hi < i64::MAX;
+        let lim = Limits {
+            max_depth: max_depth_units,
+            h_lo,
+            h_hi,
+            c_q: (n as i64) << (POS_FRAC_BITS - 1),
+            n: n as u32,
+            range_lim: range_lim.unwrap_or(i64::MAX),
+        };
 
         let cam = Camera::new(params, &self.pose, view).map_err(ReprojectError::from)?;
         let r = cam.world_to_cam;
@@ -430,41 +510,18 @@ impl<'s> RangeAccumulator<'s> {
                     return Err(RangeError::Overflow);
                 }
             }
-            let (mut dx, mut dy, mut dz) = (to_q(ax)?, to_q(ay)?, to_q(az)?);
+            let ray = [to_q(ax)?, to_q(ay)?, to_q(az)?];
+            let step = [bx_q, by_q, bz_q];
             read_all += w as u64;
-            let mut used = 0u64;
-            for (&g, &z) in frow.iter().zip(drow) {
-                let (rx, ry, rz) = (dx, dy, dz);
-                dx = dx.wrapping_add(bx_q);
-                dy = dy.wrapping_add(by_q);
-                dz = dz.wrapping_add(bz_q);
-                if z == 0 || z > max_depth_units {
-                    continue;
-                }
-                let zi = i64::from(z);
-                let hz = zi * i64::from(rz);
-                if hz < h_lo || hz > h_hi {
-                    continue;
-                }
-                let col = (c_q + zi * i64::from(rx)) >> POS_FRAC_BITS;
-                let row = (c_q + zi * i64::from(ry)) >> POS_FRAC_BITS;
-                if col < 0 || row < 0 || col >= n_i || row >= n_i {
-                    continue;
-                }
-                if let Some(lim) = range_lim {
-                    let (ec, er) = (2 * col + 1 - n_i, 2 * row + 1 - n_i);
-                    if ec * ec + er * er > lim {
-                        continue;
-                    }
-                }
-                if let Some(acc) = scratch.get_mut((row * n_i + col) as usize) {
-                    if *acc < SATURATED {
-                        *acc += ONE_SAMPLE | u32::from(g);
-                    }
-                    used += 1;
-                }
-            }
-            used_all += used;
+            // Monomorphized per limit set so the default (no height band, no range limit)
+            // loop keeps its state in registers.
+            let used = match (height_band, range_lim) {
+                (false, None) => place_row::<false, false>(frow, drow, ray, step, &lim, scratch),
+                (true, None) => place_row::<true, false>(frow, drow, ray, step, &lim, scratch),
+                (false, Some(_)) => place_row::<false, true>(frow, drow, ray, step, &lim, scratch),
+                (true, Some(_)) => place_row::<true, true>(frow, drow, ray, step, &lim, scratch),
+            };
+            used_all += u64::from(used);
         }
         self.report.pixels_read += read_all;
         self.report.points_used += used_all;

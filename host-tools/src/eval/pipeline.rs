@@ -17,7 +17,7 @@ use serde::Serialize;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Reprojection {
-    /// The flight core's integer LUT, flat-ground assumption (what the rover runs).
+    /// The flight core's integer LUT, flat-ground assumption (for rovers without depth).
     Lut,
     /// The flight core's integer range reprojection (`reproject_range`): each pixel placed
     /// at its true 3D point from a depth image (the renderer's range image converted to
