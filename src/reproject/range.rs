@@ -287,11 +287,33 @@ fn place_row<const HEIGHT: bool, const RANGE: bool>(
     lim: &Limits,
     scratch: &mut [u32],
 ) -> u32 {
+    // Every pixel: a plain zip (a runtime `step_by` slows the common loop down).
+    if stride <= 1 {
+        let it = frow.iter().zip(drow);
+        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, scratch)
+    } else {
+        let it = frow.iter().zip(drow).step_by(stride);
+        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, scratch)
+    }
+}
+
+/// The per-pixel loop of [`place_row`] over the pixels read.
+#[inline(always)]
+fn place_pixels<'p, const HEIGHT: bool, const RANGE: bool, I>(
+    pixels: I,
+    ray: [i32; 3],
+    step: [i32; 3],
+    lim: &Limits,
+    scratch: &mut [u32],
+) -> u32
+where
+    I: Iterator<Item = (&'p u8, &'p u16)>,
+{
     let [mut dx, mut dy, mut dz] = ray;
     let [bx, by, bz] = step;
     let (max_depth, n, c_q) = (lim.max_depth, lim.n, lim.c_q);
     let mut used = 0u32;
-    for (&g, &z) in frow.iter().zip(drow).step_by(stride) {
+    for (&g, &z) in pixels {
         let (rx, ry, rz) = (dx, dy, dz);
         dx = dx.wrapping_add(bx);
         dy = dy.wrapping_add(by);
