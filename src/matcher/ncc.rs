@@ -9,6 +9,7 @@
 
 use super::{check_inputs, Grid, MatchError, Matcher, OpCounts};
 use crate::image::ImageView;
+use core::num::NonZeroUsize;
 
 /// Masked normalized cross-correlation. Score in `[-1, 1]`; a map window whose weighted
 /// standard deviation is below [`Ncc::min_map_std`] (grey levels) scores `0` (nothing to
@@ -144,8 +145,9 @@ impl Matcher for Ncc {
             .get_mut(..grid.len())
             .ok_or(MatchError::OutputTooSmall { needed: grid.len() })?;
         let ts = template_stats(template, weight)?;
+        let cols = NonZeroUsize::new(grid.cols).ok_or(MatchError::WindowTooSmall)?;
         for (i, o) in out.iter_mut().enumerate() {
-            let (c, r) = (i % grid.cols, i / grid.cols);
+            let (c, r) = (i % cols, i / cols);
             let win = region
                 .sub(c * step, r * step, template.width(), template.height())
                 .ok_or(MatchError::WindowTooSmall)?;
