@@ -79,19 +79,34 @@ impl Ncc {
             else {
                 return Err(MatchError::WindowTooSmall);
             };
-            let (mut a, mut b, mut c) = (0u64, 0u64, 0u64);
-            for ((&t, &w), &m) in t.iter().zip(w).zip(m) {
-                let wm = w as u32 * m as u32;
-                a += wm as u64;
-                b += (wm * m as u32) as u64;
-                c += (wm * t as u32) as u64;
+            // Runs of at most ROW_CHUNK pixels keep the partial sums in u32 (at most
+            // 256 * 255^3 < 2^32); exact, and much cheaper than u64 per pixel on a 32-bit
+            // core.
+            for ((t, w), m) in t
+                .chunks(ROW_CHUNK)
+                .zip(w.chunks(ROW_CHUNK))
+                .zip(m.chunks(ROW_CHUNK))
+            {
+                let (mut a, mut b, mut c) = (0u32, 0u32, 0u32);
+                for ((&t, &w), &m) in t.iter().zip(w).zip(m) {
+                    let wm = w as u32 * m as u32;
+                    a += wm;
+                    b += wm * m as u32;
+                    c += wm * t as u32;
+                }
+                sm += a as u64;
+                smm += b as u64;
+                stm += c as u64;
             }
-            sm += a;
-            smm += b;
-            stm += c;
         }
         ops.macs += 3 * (template.width() * template.height()) as u64;
         ops.windows += 1;
+        Ok(self.combine(ts, sm, smm, stm))
+    }
+
+    /// The score from the window sums `Sm = sum w m`, `Smm = sum w m^2`, `Stm = sum w t m`
+    /// (shared by both dense paths, so they agree to the bit).
+    fn combine(&self, ts: &TemplateStats, sm: u64, smm: u64, stm: u64) -> f32 {
         let w = ts.w as i128;
         let cov = w * stm as i128 - ts.st as i128 * sm as i128;
         let vt = w * ts.stt as i128 - (ts.st as i128) * (ts.st as i128);
@@ -100,11 +115,185 @@ impl Ncc {
         let min_var = self.min_map_std * self.min_map_std;
         let wf = ts.w as f32;
         if vm <= 0 || (vm as f32) < min_var * wf * wf || vt <= 0 {
-            return Ok(0.0);
+            return 0.0;
         }
         let r = cov as f32 / (libm::sqrtf(vt as f32) * libm::sqrtf(vm as f32));
-        Ok(r.clamp(-1.0, 1.0))
+        r.clamp(-1.0, 1.0)
     }
+
+    /// Fast dense path for small templates over narrow regions (the localizer's coarse
+    /// pass: 25 x 25 px over 150 px at 2 m/px). Same sums, so the same scores to the bit:
+    ///
+    /// - `Stm = sum (w t) m`: one u16 x u8 multiply-accumulate per pixel with `w t`
+    ///   precomputed;
+    /// - `Sm`, `Smm`: with `w_ref` the largest weight (the mask is nearly uniform: only a
+    ///   blind disc, thin wedges and edge blocks differ), `sum w m = w_ref * box(m) + sum_K (w - w_ref) m`
+    ///   over the few pixels `K` whose weight differs. `box(m)` and `box(m^2)` are
+    ///   rectangle sums from column sums kept up to date row by row.
+    ///
+    /// MACs counted: `N + 2 |K|` per window (`N` template pixels). Returns `Ok(false)`
+    /// (nothing written) when the template, region or differing set exceeds the stack
+    /// tables ([`FAST_MAX_PX`], [`FAST_MAX_COLS`], [`FAST_MAX_K`]).
+    #[allow(clippy::too_many_arguments)]
+    fn dense_fast(
+        &self,
+        ts: &TemplateStats,
+        template: &ImageView<'_>,
+        weight: &ImageView<'_>,
+        region: &ImageView<'_>,
+        step: usize,
+        grid: &Grid,
+        out: &mut [f32],
+        ops: &mut OpCounts,
+    ) -> Result<bool, MatchError> {
+        let (tw, th) = (template.width(), template.height());
+        let n = tw * th;
+        let (rw, stride) = (region.width(), region.stride());
+        if n > FAST_MAX_PX || rw > FAST_MAX_COLS || tw == 0 || th == 0 {
+            return Ok(false);
+        }
+        let span = (th - 1) * stride + tw;
+        if span > u16::MAX as usize + 1 {
+            return Ok(false);
+        }
+        // Reference weight: the largest (full blocks of the mask; the rest are few).
+        let mut wref = 0u32;
+        for y in 0..th {
+            let w = weight.row(y).ok_or(MatchError::MaskSizeMismatch)?;
+            wref = wref.max(w.iter().copied().max().unwrap_or(0) as u32);
+        }
+        // w t per pixel (row-major, tw per row) and the pixels whose weight differs
+        // (window offsets, u16 as span <= 65536).
+        let mut wt = [0u16; FAST_MAX_PX];
+        let mut koff = [0u16; FAST_MAX_K];
+        let mut kdelta = [0i16; FAST_MAX_K];
+        let mut k = 0usize;
+        let mut wt_rows = wt.iter_mut();
+        for y in 0..th {
+            let (Some(t), Some(w)) = (template.row(y), weight.row(y)) else {
+                return Err(MatchError::MaskSizeMismatch);
+            };
+            for (x, (&t, &w)) in t.iter().zip(w).enumerate() {
+                if let Some(d) = wt_rows.next() {
+                    *d = (w as u32 * t as u32) as u16;
+                }
+                if w as u32 != wref {
+                    let (Some(o), Some(d)) = (koff.get_mut(k), kdelta.get_mut(k)) else {
+                        // More differing weights than the table holds: general path.
+                        return Ok(false);
+                    };
+                    *o = (y * stride + x) as u16;
+                    *d = w as i16 - wref as i16;
+                    k += 1;
+                }
+            }
+        }
+        let wt = wt.get(..n).ok_or(MatchError::WindowTooSmall)?;
+        let (koff, kdelta) = match (koff.get(..k), kdelta.get(..k)) {
+            (Some(o), Some(d)) => (o, d),
+            _ => return Err(MatchError::WindowTooSmall),
+        };
+        let data = region.data();
+        // Column sums of m and m^2 over the template's rows at the current grid row
+        // (th <= FAST_MAX_PX rows: at most 1024 * 255^2 < 2^32).
+        let mut colm = [0u32; FAST_MAX_COLS];
+        let mut colmm = [0u32; FAST_MAX_COLS];
+        let colm = colm.get_mut(..rw).ok_or(MatchError::WindowTooSmall)?;
+        let colmm = colmm.get_mut(..rw).ok_or(MatchError::WindowTooSmall)?;
+        let mut outs = out.iter_mut();
+        for r in 0..grid.rows {
+            let y0 = r * step;
+            if r == 0 || step >= th {
+                colm.fill(0);
+                colmm.fill(0);
+                for y in y0..y0 + th {
+                    add_row(colm, colmm, region.row(y), true)?;
+                }
+            } else {
+                for y in y0 - step..y0 {
+                    add_row(colm, colmm, region.row(y), false)?;
+                }
+                for y in y0 - step + th..y0 + th {
+                    add_row(colm, colmm, region.row(y), true)?;
+                }
+            }
+            for c in 0..grid.cols {
+                let x0 = c * step;
+                let (Some(cm), Some(cmm)) = (colm.get(x0..x0 + tw), colmm.get(x0..x0 + tw)) else {
+                    return Err(MatchError::WindowTooSmall);
+                };
+                let bm: u64 = cm.iter().map(|&v| v as u64).sum();
+                let bmm: u64 = cmm.iter().map(|&v| v as u64).sum();
+                let base = y0 * stride + x0;
+                let win = data
+                    .get(base..base + span)
+                    .ok_or(MatchError::WindowTooSmall)?;
+                let mut stm = 0u64;
+                for (y, wrow) in (0..th).zip(wt.chunks(tw)) {
+                    let mrow = win
+                        .get(y * stride..y * stride + tw)
+                        .ok_or(MatchError::WindowTooSmall)?;
+                    // tw <= FAST_MAX_COLS = 256 pixels: 256 * 255^3 < 2^32.
+                    let mut acc = 0u32;
+                    for (&a, &m) in wrow.iter().zip(mrow) {
+                        acc += a as u32 * m as u32;
+                    }
+                    stm += acc as u64;
+                }
+                let (mut cs, mut css) = (0i64, 0i64);
+                for (&o, &d) in koff.iter().zip(kdelta) {
+                    let m = win.get(o as usize).copied().unwrap_or(0) as i32;
+                    let dm = d as i32 * m;
+                    cs += dm as i64;
+                    css += (dm * m) as i64;
+                }
+                let sm = (wref as i64 * bm as i64 + cs) as u64;
+                let smm = (wref as i64 * bmm as i64 + css) as u64;
+                if let Some(o) = outs.next() {
+                    *o = self.combine(ts, sm, smm, stm);
+                }
+            }
+        }
+        ops.macs += (n as u64 + 2 * k as u64) * grid.len() as u64;
+        ops.windows += grid.len() as u64;
+        Ok(true)
+    }
+}
+
+/// Pixels per u32 partial sum in the general path (256 * 255^3 < 2^32).
+const ROW_CHUNK: usize = 256;
+
+/// Largest template (pixels) of the fast dense path; its `w t` table lives on the stack
+/// (`FAST_MAX_PX` x 2 bytes).
+pub const FAST_MAX_PX: usize = 1024;
+
+/// Most pixels whose weight differs from the largest, in the fast dense path (stack table
+/// of `FAST_MAX_K` x 4 bytes); more and the general path runs.
+pub const FAST_MAX_K: usize = 384;
+
+/// Widest region (pixels) of the fast dense path (column sums on the stack,
+/// `FAST_MAX_COLS` x 8 bytes); also bounds the template width to 256 pixels.
+pub const FAST_MAX_COLS: usize = 256;
+
+/// Adds (`add`) or subtracts one region row's `m` and `m^2` into the column sums.
+fn add_row(
+    colm: &mut [u32],
+    colmm: &mut [u32],
+    row: Option<&[u8]>,
+    add: bool,
+) -> Result<(), MatchError> {
+    let row = row.ok_or(MatchError::WindowTooSmall)?;
+    for ((s, ss), &m) in colm.iter_mut().zip(colmm.iter_mut()).zip(row) {
+        let (m, mm) = (m as u32, m as u32 * m as u32);
+        if add {
+            *s += m;
+            *ss += mm;
+        } else {
+            *s -= m;
+            *ss -= mm;
+        }
+    }
+    Ok(())
 }
 
 impl Matcher for Ncc {
@@ -145,6 +334,9 @@ impl Matcher for Ncc {
             .get_mut(..grid.len())
             .ok_or(MatchError::OutputTooSmall { needed: grid.len() })?;
         let ts = template_stats(template, weight)?;
+        if self.dense_fast(&ts, template, weight, region, step, &grid, out, ops)? {
+            return Ok(grid);
+        }
         let cols = NonZeroUsize::new(grid.cols).ok_or(MatchError::WindowTooSmall)?;
         for (i, o) in out.iter_mut().enumerate() {
             let (c, r) = (i % cols, i / cols);
@@ -183,6 +375,48 @@ mod tests {
         let iv = ImageView::new(&inv, 3, 3).unwrap();
         let s = Ncc::default().score(&tv, &wv, &iv, &mut ops).unwrap();
         assert!(s < -0.999, "{s}");
+    }
+
+    #[test]
+    fn fast_dense_path_equals_per_window_scores_to_the_bit() {
+        let mut seed = 12345u32;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 24) as u8
+        };
+        let (tw, th, rw, rh) = (9usize, 7usize, 40usize, 30usize);
+        let t: [u8; 63] = core::array::from_fn(|_| rnd());
+        // Mostly one weight, a hole disc and a few partial weights (like a coarse mask).
+        let w: [u8; 63] = core::array::from_fn(|i| match i % 11 {
+            0 => 0,
+            3 => 77,
+            _ => 255,
+        });
+        let m: [u8; 1200] = core::array::from_fn(|_| rnd());
+        let (tv, wv, mv) = (
+            ImageView::new(&t, tw, th).unwrap(),
+            ImageView::new(&w, tw, th).unwrap(),
+            ImageView::new(&m, rw, rh).unwrap(),
+        );
+        for step in [1usize, 2, 3, 7, 10] {
+            let mut out = [0f32; 1200];
+            let mut ops = OpCounts::default();
+            let g = Ncc::default()
+                .dense(&tv, &wv, &mv, step, &mut out, &mut ops)
+                .unwrap();
+            assert!(
+                ops.macs < 3 * (tw * th * g.len()) as u64,
+                "fast path not taken"
+            );
+            for r in 0..g.rows {
+                for c in 0..g.cols {
+                    let win = mv.sub(c * step, r * step, tw, th).unwrap();
+                    let mut o = OpCounts::default();
+                    let s = Ncc::default().score(&tv, &wv, &win, &mut o).unwrap();
+                    assert_eq!(s.to_bits(), out[r * g.cols + c].to_bits(), "{step} {c} {r}");
+                }
+            }
+        }
     }
 
     #[test]
