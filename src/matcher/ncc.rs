@@ -320,6 +320,44 @@ fn corrections(win: &[u8], koff: &[u16], kdelta: &[i16]) -> (i64, i64) {
     (cs, css)
 }
 
+/// `[sum w m, sum w m^2, sum w t m]` of one row (at most [`ROW_CHUNK`] pixels, so the
+/// sums fit u32).
+#[inline(always)]
+fn sums1(t: &[u8], w: &[u8], m: &[u8]) -> [u32; 3] {
+    let (mut a, mut b, mut c) = (0u32, 0u32, 0u32);
+    for ((&t, &w), &m) in t.iter().zip(w).zip(m) {
+        let wm = w as u32 * m as u32;
+        a += wm;
+        b += wm * m as u32;
+        c += wm * t as u32;
+    }
+    [a, b, c]
+}
+
+/// [`sums1`] of one row for two adjacent windows (`m` holds `t.len() + 1` bytes; fewer
+/// and the sums are 0): each template pixel is loaded once for both.
+#[inline(always)]
+fn sums2(t: &[u8], w: &[u8], m: &[u8]) -> [[u32; 3]; 2] {
+    let (Some(&m0), Some(rest)) = (m.first(), m.get(1..)) else {
+        return [[0; 3]; 2];
+    };
+    let mut p = m0 as u32;
+    let (mut a0, mut b0, mut c0, mut a1, mut b1, mut c1) = (0u32, 0u32, 0u32, 0u32, 0u32, 0u32);
+    for ((&t, &w), &n) in t.iter().zip(w).zip(rest) {
+        let (t, w, n) = (t as u32, w as u32, n as u32);
+        let wm0 = w * p;
+        a0 += wm0;
+        b0 += wm0 * p;
+        c0 += wm0 * t;
+        let wm1 = w * n;
+        a1 += wm1;
+        b1 += wm1 * n;
+        c1 += wm1 * t;
+        p = n;
+    }
+    [[a0, b0, c0], [a1, b1, c1]]
+}
+
 /// Pixels per u32 partial sum in the general path (256 * 255^3 < 2^32).
 const ROW_CHUNK: usize = 256;
 
@@ -397,11 +435,51 @@ impl Matcher for Ncc {
         if self.dense_fast(&ts, template, weight, region, step, &grid, out, ops)? {
             return Ok(grid);
         }
+        let (tw, th) = (template.width(), template.height());
+        if step == 1 && tw <= ROW_CHUNK {
+            // Pairs of adjacent windows share each template pixel's loads.
+            let mut outs = out.iter_mut();
+            for r in 0..grid.rows {
+                let mut c = 0usize;
+                while c < grid.cols {
+                    let nb = if c + 2 <= grid.cols { 2 } else { 1 };
+                    let mut acc = [[0u64; 3]; 2];
+                    for y in 0..th {
+                        let m = region
+                            .row(r + y)
+                            .and_then(|row| row.get(c..c + tw + nb - 1));
+                        let (Some(t), Some(w), Some(m)) = (template.row(y), weight.row(y), m)
+                        else {
+                            return Err(MatchError::WindowTooSmall);
+                        };
+                        let p = if nb == 2 {
+                            sums2(t, w, m)
+                        } else {
+                            [sums1(t, w, m), [0; 3]]
+                        };
+                        for (a, p) in acc.iter_mut().zip(p) {
+                            for (a, p) in a.iter_mut().zip(p) {
+                                *a += p as u64;
+                            }
+                        }
+                    }
+                    for a in acc.iter().take(nb) {
+                        if let Some(o) = outs.next() {
+                            *o = self.combine(&ts, a[0], a[1], a[2]);
+                        }
+                    }
+                    ops.macs += (3 * tw * th * nb) as u64;
+                    ops.windows += nb as u64;
+                    c += nb;
+                }
+            }
+            return Ok(grid);
+        }
         let cols = NonZeroUsize::new(grid.cols).ok_or(MatchError::WindowTooSmall)?;
         for (i, o) in out.iter_mut().enumerate() {
             let (c, r) = (i % cols, i / cols);
             let win = region
-                .sub(c * step, r * step, template.width(), template.height())
+                .sub(c * step, r * step, tw, th)
                 .ok_or(MatchError::WindowTooSmall)?;
             *o = self.window(&ts, template, weight, &win, ops)?;
         }
@@ -468,6 +546,41 @@ mod tests {
                 ops.macs < 3 * (tw * th * g.len()) as u64,
                 "fast path not taken"
             );
+            for r in 0..g.rows {
+                for c in 0..g.cols {
+                    let win = mv.sub(c * step, r * step, tw, th).unwrap();
+                    let mut o = OpCounts::default();
+                    let s = Ncc::default().score(&tv, &wv, &win, &mut o).unwrap();
+                    assert_eq!(s.to_bits(), out[r * g.cols + c].to_bits(), "{step} {c} {r}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn general_dense_path_equals_per_window_scores_to_the_bit() {
+        let mut seed = 777u32;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 24) as u8
+        };
+        // 33 x 33 = 1089 px > FAST_MAX_PX, random weights: the general path.
+        let (tw, th, rw, rh) = (33usize, 33usize, 40usize, 37usize);
+        let t: [u8; 1089] = core::array::from_fn(|_| rnd());
+        let w: [u8; 1089] = core::array::from_fn(|_| rnd());
+        let m: [u8; 1480] = core::array::from_fn(|_| rnd());
+        let (tv, wv, mv) = (
+            ImageView::new(&t, tw, th).unwrap(),
+            ImageView::new(&w, tw, th).unwrap(),
+            ImageView::new(&m, rw, rh).unwrap(),
+        );
+        for step in [1usize, 2, 3] {
+            let mut out = [0f32; 64];
+            let mut ops = OpCounts::default();
+            let g = Ncc::default()
+                .dense(&tv, &wv, &mv, step, &mut out, &mut ops)
+                .unwrap();
+            assert_eq!(ops.macs, 3 * (tw * th * g.len()) as u64);
             for r in 0..g.rows {
                 for c in 0..g.cols {
                     let win = mv.sub(c * step, r * step, tw, th).unwrap();
