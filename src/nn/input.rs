@@ -7,6 +7,7 @@
 //! division per pixel.
 
 use super::NnError;
+use crate::image::ImageView;
 
 /// Input side, pixels (50 m / 64 = 0.78125 m per pixel).
 pub const INPUT_SIDE: usize = 64;
@@ -35,15 +36,20 @@ pub const fn isqrt_u64(n: u64) -> u64 {
 
 /// Q4 mean of the valid source pixels of output cell `(oy, ox)`, or `None` if none is valid.
 #[inline]
-fn cell(src: &[u8], mask: Option<&[u8]>, side: usize, oy: usize, ox: usize) -> Option<u32> {
+fn cell(src: &ImageView<'_>, mask: Option<&ImageView<'_>>, oy: usize, ox: usize) -> Option<u32> {
+    let side = src.width();
     let (r0, r1) = (oy * side / INPUT_SIDE, (oy + 1) * side / INPUT_SIDE);
     let (c0, c1) = (ox * side / INPUT_SIDE, (ox + 1) * side / INPUT_SIDE);
     let (mut sum, mut n) = (0u32, 0u32);
     for r in r0..r1 {
-        let row = &src[r * side + c0..r * side + c1];
+        let Some(row) = src.row(r).and_then(|x| x.get(c0..c1)) else {
+            continue;
+        };
         match mask {
             Some(m) => {
-                let mrow = &m[r * side + c0..r * side + c1];
+                let Some(mrow) = m.row(r).and_then(|x| x.get(c0..c1)) else {
+                    continue;
+                };
                 for (&v, &ok) in row.iter().zip(mrow) {
                     if ok != 0 {
                         sum += v as u32;
@@ -63,11 +69,8 @@ fn cell(src: &[u8], mask: Option<&[u8]>, side: usize, oy: usize, ox: usize) -> O
 }
 
 /// Builds the network input from a `side x side` raster (`side >= INPUT_SIDE`) covering
-/// 50 m x 50 m and an optional mask of the same size (non-zero = valid pixel).
-///
-/// Errors: wrong buffer sizes ([`NnError::BufferSize`]), fewer than [`MIN_VALID_CELLS`]
-/// valid cells ([`NnError::TooFewValid`]), or no contrast among them ([`NnError::FlatInput`],
-/// e.g. a black or saturated frame).
+/// 50 m x 50 m and an optional mask of the same size (non-zero = valid pixel), both packed
+/// row-major. See [`prepare_input_view`].
 pub fn prepare_input(
     src: &[u8],
     mask: Option<&[u8]>,
@@ -78,10 +81,36 @@ pub fn prepare_input(
     {
         return Err(NnError::BufferSize);
     }
+    let src = ImageView::new(src, side, side).map_err(|_| NnError::BufferSize)?;
+    let mask = match mask {
+        Some(m) => Some(ImageView::new(m, side, side).map_err(|_| NnError::BufferSize)?),
+        None => None,
+    };
+    prepare_input_view(&src, mask.as_ref(), out)
+}
+
+/// Builds the network input from a square image view (side >= [`INPUT_SIDE`] pixels,
+/// covering 50 m x 50 m) and an optional mask view of the same size (non-zero = valid).
+///
+/// Errors: non-square, too small or mismatched views ([`NnError::BufferSize`]), fewer than
+/// [`MIN_VALID_CELLS`] valid cells ([`NnError::TooFewValid`]), or no contrast among them
+/// ([`NnError::FlatInput`], e.g. a black or saturated frame).
+pub fn prepare_input_view(
+    src: &ImageView<'_>,
+    mask: Option<&ImageView<'_>>,
+    out: &mut [i8; INPUT_LEN],
+) -> Result<(), NnError> {
+    let side = src.width();
+    if side < INPUT_SIDE
+        || src.height() != side
+        || mask.is_some_and(|m| m.width() != side || m.height() != side)
+    {
+        return Err(NnError::BufferSize);
+    }
     let (mut n, mut s, mut q) = (0u64, 0u64, 0u64);
     for oy in 0..INPUT_SIDE {
         for ox in 0..INPUT_SIDE {
-            if let Some(v) = cell(src, mask, side, oy, ox) {
+            if let Some(v) = cell(src, mask, oy, ox) {
                 n += 1;
                 s += v as u64;
                 q += (v as u64) * (v as u64);
@@ -100,7 +129,7 @@ pub fn prepare_input(
     let (n, s) = (n as i64, s as i64);
     for oy in 0..INPUT_SIDE {
         for ox in 0..INPUT_SIDE {
-            out[oy * INPUT_SIDE + ox] = match cell(src, mask, side, oy, ox) {
+            out[oy * INPUT_SIDE + ox] = match cell(src, mask, oy, ox) {
                 None => 0,
                 Some(v) => {
                     let num = INPUT_UNITS_PER_SIGMA * (n * v as i64 - s);

@@ -11,11 +11,13 @@
 //! - [`conv`]: convolution; [`dense`]: fully connected; [`pool`]: max / average pooling;
 //! - [`input`]: raster + mask to normalized int8 input;
 //! - [`weights`]: `.ofw` weight file parsing with CRC-32 validation;
-//! - [`model`]: the shipped network, its arena, cosine scoring.
+//! - [`model`]: the shipped network, its arena, cosine scoring;
+//! - [`matcher`]: the network behind the localization engine's `Matcher` trait.
 
 pub mod conv;
 pub mod dense;
 pub mod input;
+pub mod matcher;
 pub mod model;
 pub mod pool;
 pub mod requant;

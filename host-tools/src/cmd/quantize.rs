@@ -88,6 +88,29 @@ pub fn run(a: Args) -> Result<()> {
             r.0, r.1, l.output_scale, l.output_zp
         );
     }
+    // Host time per embedding (one thread, int8 core kernels vs candle float batch 64).
+    {
+        use orbfix::nn::model::{Arena, EMBED_LEN};
+        use orbfix_host::nn::float_model::batch_tensor;
+        let reps = calib.len().min(128);
+        let mut arena = Box::new(Arena::new());
+        let mut e = [0i8; EMBED_LEN];
+        let t = std::time::Instant::now();
+        for x in &calib[..reps] {
+            qnet.embed(x, &mut arena, &mut e)
+                .map_err(|e| anyhow::anyhow!("int8 embedding failed: {e:?}"))?;
+        }
+        let int8_us = t.elapsed().as_secs_f64() * 1e6 / reps as f64;
+        let refs: Vec<_> = calib[..reps].iter().collect();
+        let t = std::time::Instant::now();
+        for chunk in refs.chunks(64) {
+            net.embed(&batch_tensor(chunk)?)?;
+        }
+        let f32_us = t.elapsed().as_secs_f64() * 1e6 / reps as f64;
+        println!(
+            "host time per embedding: int8 core {int8_us:.0} us (1 thread), f32 candle {f32_us:.0} us (batch 64, all threads); {reps} inputs"
+        );
+    }
     if a.eval_locations == 0 {
         return Ok(());
     }

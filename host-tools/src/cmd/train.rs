@@ -39,7 +39,7 @@ pub struct Args {
     #[arg(long, default_value_t = 128)]
     pub val_size: usize,
     /// Steps between validations and checkpoints.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 50)]
     pub checkpoint_every: u64,
 }
 

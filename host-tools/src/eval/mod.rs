@@ -61,8 +61,13 @@ pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
         "l1" => Box::new(L1),
         "l2" => Box::new(L2),
         "ncc" => Box::new(Ncc::default()),
+        "cnn" => Box::new(orbfix::nn::matcher::CnnMatcher::shipped().map_err(|e| {
+            anyhow::anyhow!(
+                "the shipped CNN weights are invalid ({e:?}); regenerate weights/matcher-v1.ofw with `orbfix quantize`"
+            )
+        })?),
         _ => bail!(
-            "unknown matcher '{name}': choose one of {} (options: -dist, -eq, -hpN, -rN)",
+            "unknown matcher '{name}': choose one of {}, cnn (options: -dist, -eq, -hpN, -rN)",
             MATCHERS.join(", ")
         ),
     };

@@ -1,8 +1,9 @@
 //! Training and evaluation pairs generated on the fly from the procedural world.
 //!
-//! **Proxy** (until the renderer and the LUT reprojection land on main): both sides are
-//! orthographic renders of the world (Lambertian shading of the height field times the
-//! albedo, no cast shadows):
+//! **Proxy** for the rover side (the LUT reprojection of rendered ground views is not wired
+//! into training yet): both sides are orthographic renders of the world sampled with
+//! `World::sample_grid` (Lambertian shading of the height field times the albedo, no cast
+//! shadows):
 //! - satellite side: a 50 m window at 0.390625 m/px (128 px) under the map's sun;
 //! - rover side: the 200 x 200 top-down grid at 0.25 m/px under the view's sun, with the
 //!   reprojection's validity pattern (nothing within 2.1 m of the rover: the cameras, 2 m
@@ -39,49 +40,22 @@ pub struct Sun {
     pub azimuth_deg: f64,
 }
 
-/// Axis-aligned zone of the world, metres.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Zone {
-    /// West edge.
-    pub x0: f64,
-    /// South edge.
-    pub y0: f64,
-    /// East edge.
-    pub x1: f64,
-    /// North edge.
-    pub y1: f64,
-}
+pub use crate::world::zones::Zone;
 
-/// Training zone (2 x 2 km, as in the 2018 study). Proxy until `world::zones` lands.
-pub const TRAIN_ZONE: Zone = Zone {
-    x0: 0.0,
-    y0: 0.0,
-    x1: 2000.0,
-    y1: 2000.0,
-};
-/// Validation zone (1 x 1 km, disjoint from training).
-pub const VAL_ZONE: Zone = Zone {
-    x0: 3000.0,
-    y0: 0.0,
-    x1: 4000.0,
-    y1: 1000.0,
-};
-/// Test zone (1 x 1 km, disjoint from both).
-pub const TEST_ZONE: Zone = Zone {
-    x0: 3000.0,
-    y0: 2000.0,
-    x1: 4000.0,
-    y1: 3000.0,
-};
+/// Training zone (`world::zones::TRAIN`, 2 x 2 km).
+pub const TRAIN_ZONE: Zone = crate::world::zones::TRAIN;
+/// Validation zone (`world::zones::VALIDATION`, disjoint from training).
+pub const VAL_ZONE: Zone = crate::world::zones::VALIDATION;
+/// Test zone (`world::zones::TEST`, disjoint from both).
+pub const TEST_ZONE: Zone = crate::world::zones::TEST;
 
-impl Zone {
-    /// A uniform random point at least `margin` metres inside the zone.
-    pub fn sample(&self, rng: &mut StdRng, margin: f64) -> (f64, f64) {
-        (
-            rng.random_range(self.x0 + margin..self.x1 - margin),
-            rng.random_range(self.y0 + margin..self.y1 - margin),
-        )
-    }
+/// A uniform random point at least `margin` metres inside `zone`.
+pub fn sample_in(zone: &Zone, rng: &mut StdRng, margin: f64) -> (f64, f64) {
+    let z = zone.inset(margin);
+    (
+        rng.random_range(z.x_min_m..z.x_max_m),
+        rng.random_range(z.y_min_m..z.y_max_m),
+    )
 }
 
 /// Orthographic render, `side x side` pixels of `m_per_px`, centred on `(cx, cy)`,
@@ -96,15 +70,15 @@ pub fn render_ortho(
 ) -> Vec<u8> {
     let g = side + 2;
     let half = side as f64 / 2.0;
-    // Heights at pixel centres, with a one-pixel border for the gradient.
-    let mut h = vec![0f64; g * g];
-    for r in 0..g {
-        for c in 0..g {
-            let x = cx + (c as f64 - 1.0 + 0.5 - half) * m_per_px;
-            let y = cy - (r as f64 - 1.0 + 0.5 - half) * m_per_px;
-            h[r * g + c] = world.height_m(x, y);
-        }
-    }
+    // Heights and albedo at pixel centres, with a one-pixel border for the gradient.
+    let grid = world.sample_grid(
+        cx - (half + 1.0) * m_per_px,
+        cy + (half + 1.0) * m_per_px,
+        m_per_px,
+        g,
+        g,
+    );
+    let h = &grid.height_m;
     let (e, a) = (sun.elevation_deg.to_radians(), sun.azimuth_deg.to_radians());
     let s = [e.cos() * a.sin(), e.cos() * a.cos(), e.sin()];
     let flat = s[2].max(0.05);
@@ -112,14 +86,13 @@ pub fn render_ortho(
     for r in 0..side {
         for c in 0..side {
             let (gr, gc) = (r + 1, c + 1);
-            let hx = (h[gr * g + gc + 1] - h[gr * g + gc - 1]) / (2.0 * m_per_px);
+            let hx = (h[gr * g + gc + 1] - h[gr * g + gc - 1]) as f64 / (2.0 * m_per_px);
             // North is up (row - 1).
-            let hy = (h[(gr - 1) * g + gc] - h[(gr + 1) * g + gc]) / (2.0 * m_per_px);
+            let hy = (h[(gr - 1) * g + gc] - h[(gr + 1) * g + gc]) as f64 / (2.0 * m_per_px);
             let n = (hx * hx + hy * hy + 1.0).sqrt();
             let shade = ((-hx * s[0] - hy * s[1] + s[2]) / n).max(0.0);
-            let x = cx + (c as f64 + 0.5 - half) * m_per_px;
-            let y = cy - (r as f64 + 0.5 - half) * m_per_px;
-            let v = 96.0 * world.albedo(x, y) / 0.12 * shade / flat;
+            let albedo = grid.albedo[gr * g + gc] as f64;
+            let v = 96.0 * albedo / 0.12 * shade / flat;
             out[r * side + c] = v.clamp(0.0, 255.0) as u8;
         }
     }
@@ -282,7 +255,7 @@ pub fn triplet(
         let mut rng =
             StdRng::seed_from_u64(seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ attempt << 48);
         attempt += 1;
-        let (x, y) = zone.sample(&mut rng, 60.0);
+        let (x, y) = sample_in(zone, &mut rng, 60.0);
         let map_sun = random_sun(&mut rng);
         let view_sun = if rng.random_bool(cross_sun_p) {
             random_sun(&mut rng)

@@ -4,7 +4,7 @@
 //! median and p95 error of the best window, and pair AUC (true window vs the 440 others).
 
 use super::data::{
-    random_aug, random_sun, render_ortho, rover_input, Sun, Zone, SAT_SIDE, WINDOW_M,
+    random_aug, random_sun, render_ortho, rover_input, sample_in, Sun, Zone, SAT_SIDE, WINDOW_M,
 };
 use super::float_model::{batch_tensor, FloatNet};
 use crate::world::World;
@@ -68,7 +68,7 @@ pub fn cases(world: &World, zone: &Zone, n: usize, seed: u64, cross_sun: bool) -
         .into_par_iter()
         .filter_map(|i| {
             let mut rng = StdRng::seed_from_u64(seed.wrapping_mul(31).wrapping_add(i as u64));
-            let (x, y) = zone.sample(&mut rng, 200.0);
+            let (x, y) = sample_in(zone, &mut rng, 200.0);
             let map_sun: Sun = random_sun(&mut rng);
             let view_sun = if cross_sun {
                 random_sun(&mut rng)
