@@ -367,7 +367,7 @@ pub const FAST_MAX_PX: usize = 1024;
 
 /// Most pixels whose weight differs from the largest, in the fast dense path (stack table
 /// of `FAST_MAX_K` x 4 bytes); more and the general path runs.
-pub const FAST_MAX_K: usize = 384;
+pub const FAST_MAX_K: usize = 640;
 
 /// Widest region (pixels) of the fast dense path (column sums on the stack,
 /// `FAST_MAX_COLS` x 8 bytes); also bounds the template width to 256 pixels.
