@@ -32,17 +32,15 @@ else
     cargo check -q -p orbfix --target "$ORBFIX_FLIGHT_TARGET" $ORBFIX_FLIGHT_CARGO_FLAGS
   )
   # Whole fix on the target, budget and bit-exact comparison with the host (fails if not).
-  # (The firmware build compiles the core for the target in full, with LTO.) Until the
-  # localizer is free of panic paths the budget is measured with --allow-panic and records
-  # panic_free: false and the call sites; set ORBFIX_FLIGHT_REQUIRE_PANIC_FREE=1 to fail then.
-  ALLOW_PANIC=--allow-panic
-  [ "${ORBFIX_FLIGHT_REQUIRE_PANIC_FREE:-0}" = 1 ] && ALLOW_PANIC=
-  CARGO_TARGET_DIR=$FLIGHT_TARGET_DIR cargo run -q -p orbfix-host -- budget $ALLOW_PANIC \
+  # (The firmware build compiles the core for the target in full, with LTO.) No
+  # --allow-panic: the firmware must link with the no-panic handler, i.e. no panic path may
+  # remain in anything the fix runs; otherwise `orbfix budget` lists the call sites and fails.
+  CARGO_TARGET_DIR=$FLIGHT_TARGET_DIR cargo run -q -p orbfix-host -- budget \
     --toolchain-env "$FLIGHT_ENV" --json "$FLIGHT_TARGET_DIR/flight-budget.json" \
     --md "$FLIGHT_TARGET_DIR/timing-budget.md"
   grep -q '"bit_exact": true' "$FLIGHT_TARGET_DIR/flight-budget.json"
   grep -q '"panic_free": true' "$FLIGHT_TARGET_DIR/flight-budget.json" ||
-    echo "WARNING: the flight firmware is not panic free (call sites listed above)"
+    { echo "the flight firmware is not panic free (call sites above)" >&2; exit 1; }
   # The no-panic link check itself: the firmware without the fix must link, and must stop
   # linking when one panic path is added.
   fw_build() {

@@ -19,6 +19,7 @@
 use crate::geo::GeoRef;
 use crate::image::{ImageView, ImageViewMut};
 use crate::matcher::{Grid, MatchError, Matcher, OpCounts};
+use core::num::{NonZeroU32, NonZeroUsize};
 
 /// Largest number of candidates a [`Fix`] carries.
 pub const MAX_CANDIDATES: usize = 8;
@@ -238,30 +239,32 @@ pub fn downsample_weighted(
     {
         return Err(LocalizeError::BadConfig);
     }
-    let area = (f * f) as u32;
+    let area = block_area(f)?;
     for oy in 0..oh {
-        for ox in 0..ow {
+        let (Some(t_row), Some(w_row)) = (t_out.row_mut(oy), w_out.row_mut(oy)) else {
+            return Err(LocalizeError::BadConfig);
+        };
+        for (ox, (t_dst, w_dst)) in t_row.iter_mut().zip(w_row.iter_mut()).enumerate() {
             let (mut sw, mut swt) = (0u32, 0u32);
+            let xs = ox * f;
             for y in oy * f..(oy + 1) * f {
-                let (Some(t), Some(w)) = (template.row(y), weight.row(y)) else {
+                let t = template.row(y).and_then(|r| r.get(xs..xs + f));
+                let w = weight.row(y).and_then(|r| r.get(xs..xs + f));
+                let (Some(t), Some(w)) = (t, w) else {
                     return Err(LocalizeError::BadConfig);
                 };
-                for x in ox * f..(ox + 1) * f {
-                    let (tv, wv) = (t[x] as u32, w[x] as u32);
+                for (&tv, &wv) in t.iter().zip(w) {
+                    let (tv, wv) = (tv as u32, wv as u32);
                     sw += wv;
                     swt += wv * tv;
                 }
             }
             let (tv, wv) = match (swt + sw / 2).checked_div(sw) {
                 None => (0, 0),
-                Some(t) => (t, ((sw + area / 2) / area).clamp(1, 255)),
+                Some(t) => (t, ((sw + area.get() / 2) / area).clamp(1, 255)),
             };
-            if let Some(r) = t_out.row_mut(oy) {
-                r[ox] = tv as u8;
-            }
-            if let Some(r) = w_out.row_mut(oy) {
-                r[ox] = wv as u8;
-            }
+            *t_dst = tv as u8;
+            *w_dst = wv as u8;
         }
     }
     ops.downsample_px += (ow * oh * f * f) as u64;
@@ -282,7 +285,7 @@ pub fn downsample_mean(
     if f == 0 || x0 + ow * f > src.width() || y0 + oh * f > src.height() {
         return Err(LocalizeError::BadConfig);
     }
-    let area = (f * f) as u32;
+    let area = block_area(f)?;
     for oy in 0..oh {
         let Some(dst) = out.row_mut(oy) else {
             return Err(LocalizeError::BadConfig);
@@ -294,13 +297,24 @@ pub fn downsample_mean(
                     return Err(LocalizeError::BadConfig);
                 };
                 let xs = x0 + ox * f;
-                s += row[xs..xs + f].iter().map(|&v| v as u32).sum::<u32>();
+                let Some(px) = row.get(xs..xs + f) else {
+                    return Err(LocalizeError::BadConfig);
+                };
+                s += px.iter().map(|&v| v as u32).sum::<u32>();
             }
-            *d = ((s + area / 2) / area) as u8;
+            *d = ((s + area.get() / 2) / area) as u8;
         }
     }
     ops.downsample_px += (ow * oh * f * f) as u64;
     Ok(())
+}
+
+/// Pixels in an `f x f` block, non-zero (`BadConfig` for `f == 0` or an area beyond `u32`).
+fn block_area(f: usize) -> Result<NonZeroU32, LocalizeError> {
+    f.checked_mul(f)
+        .and_then(|a| u32::try_from(a).ok())
+        .and_then(NonZeroU32::new)
+        .ok_or(LocalizeError::BadConfig)
 }
 
 /// World position (metres) of the rover when the template's top-left pixel lies at map
@@ -356,6 +370,9 @@ fn nms_peaks(
     k: usize,
 ) -> heapless::Vec<(usize, f32), MAX_CANDIDATES> {
     let mut peaks: heapless::Vec<(usize, f32), MAX_CANDIDATES> = heapless::Vec::new();
+    let Some(cols) = NonZeroUsize::new(cols) else {
+        return peaks;
+    };
     let k = k.min(MAX_CANDIDATES);
     while peaks.len() < k {
         let mut best: Option<(usize, f32)> = None;
@@ -382,6 +399,20 @@ fn nms_peaks(
         }
     }
     peaks
+}
+
+/// Stable insertion sort of a few candidates, best score first (`f32::total_cmp`); the
+/// same order as `sort_unstable_by` gives for these short slices, without the standard
+/// sort's panic paths.
+fn sort_by_score_desc(c: &mut [Candidate]) {
+    for i in 1..c.len() {
+        for j in (1..=i).rev() {
+            match c.get_mut(j - 1..=j) {
+                Some([a, b]) if b.score.total_cmp(&a.score).is_gt() => core::mem::swap(a, b),
+                _ => break,
+            }
+        }
+    }
 }
 
 /// Vertex offset of the parabola through `(-1, l)`, `(0, c)`, `(1, r)`, in `[-0.5, 0.5]`.
@@ -454,7 +485,7 @@ pub fn localize<M: Matcher + ?Sized>(
     if valid == 0 {
         return Err(MatchError::NoValidPixels.into());
     }
-    let permille = (valid * 1000 / (tw * th)) as u32;
+    let permille = (valid * 1000).checked_div(tw * th).unwrap_or(0) as u32;
     if permille < cfg.min_coverage_permille {
         return Err(LocalizeError::TooLittleCoverage { permille });
     }
@@ -472,7 +503,9 @@ pub fn localize<M: Matcher + ?Sized>(
     let (mut patch, _) = take_image(rest, l.patch_w(), l.patch_h())?;
     downsample_weighted(template, weight, l.cf, &mut ct, &mut cw, &mut ops_c)?;
     downsample_mean(map, 0, 0, l.cf, &mut cm, &mut ops_c)?;
-    let (resp, fresp) = floats.split_at_mut(l.floats() - (2 * l.rad + 1) * (2 * l.rad + 1));
+    let (resp, fresp) = floats
+        .split_at_mut_checked(l.floats() - (2 * l.rad + 1) * (2 * l.rad + 1))
+        .ok_or(LocalizeError::ScratchTooSmall)?;
     let grid = matcher.dense(
         &ct.as_view(),
         &cw.as_view(),
@@ -484,6 +517,7 @@ pub fn localize<M: Matcher + ?Sized>(
     let resp = resp
         .get(..grid.len())
         .ok_or(LocalizeError::ScratchTooSmall)?;
+    let cols = NonZeroUsize::new(grid.cols).ok_or(LocalizeError::ScratchTooSmall)?;
     let mean = resp.iter().sum::<f32>() / resp.len() as f32;
     let coarse_m = geo.m_per_px * l.cf as f32;
     let nms_cells = (cfg.nms_radius_m / coarse_m).max(1.0) as usize;
@@ -501,12 +535,12 @@ pub fn localize<M: Matcher + ?Sized>(
     // Fine pass around the best peaks.
     let mut ops_f = OpCounts::default();
     downsample_weighted(template, weight, l.ff, &mut ft, &mut fw, &mut ops_f)?;
-    let ratio = l.cf / l.ff;
+    let ratio = l.cf.checked_div(l.ff).ok_or(LocalizeError::BadConfig)?;
     let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
     let mut refined_n = 0usize;
     let mut best_fine: Option<(f32, f32, f32, usize)> = None; // (col_px, row_px, score, peak)
     for (pi, &(idx, cs)) in peaks.iter().enumerate() {
-        let (cc, cr) = (idx % grid.cols, idx / grid.cols);
+        let (cc, cr) = (idx % cols, idx / cols);
         if pi < cfg.refine_peaks.min(MAX_CANDIDATES) {
             let (fc, fr) = (cc * ratio, cr * ratio);
             let (pw, ph) = (patch.width(), patch.height());
@@ -529,7 +563,8 @@ pub fn localize<M: Matcher + ?Sized>(
                     bs = s;
                 }
             }
-            let (bc, br) = (bi % g.cols, bi / g.cols);
+            let g_cols = NonZeroUsize::new(g.cols).ok_or(LocalizeError::ScratchTooSmall)?;
+            let (bc, br) = (bi % g_cols, bi / g_cols);
             let at = |c: usize, r: usize| fr_s.get(r * g.cols + c).copied();
             let dx = match (bc.checked_sub(1).and_then(|c| at(c, br)), at(bc + 1, br)) {
                 (Some(a), Some(b)) => parabola(a, bs, b),
@@ -563,14 +598,14 @@ pub fn localize<M: Matcher + ?Sized>(
         }
     }
     // Refined first, by fine score.
-    cands[..refined_n].sort_unstable_by(|a, b| b.score.total_cmp(&a.score));
+    sort_by_score_desc(cands.get_mut(..refined_n).unwrap_or_default());
     let (col, row, score, idx) = best_fine.unwrap_or((
-        (best_idx % grid.cols * l.cf) as f32,
-        (best_idx / grid.cols * l.cf) as f32,
+        (best_idx % cols * l.cf) as f32,
+        (best_idx / cols * l.cf) as f32,
         s1,
         best_idx,
     ));
-    let (cc, cr) = (idx % grid.cols, idx / grid.cols);
+    let (cc, cr) = (idx % cols, idx / cols);
     let on_border = cc == 0 || cr == 0 || cc + 1 == grid.cols || cr + 1 == grid.rows;
     let (x_m, y_m) = rover_position(geo, col, row, tw, th);
     Ok(Fix {

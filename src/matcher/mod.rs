@@ -152,8 +152,9 @@ pub trait Matcher {
         let out = out
             .get_mut(..grid.len())
             .ok_or(MatchError::OutputTooSmall { needed: grid.len() })?;
+        let cols = core::num::NonZeroUsize::new(grid.cols).ok_or(MatchError::WindowTooSmall)?;
         for (i, o) in out.iter_mut().enumerate() {
-            let (c, r) = (i % grid.cols, i / grid.cols);
+            let (c, r) = (i % cols, i / cols);
             let win = region
                 .sub(c * step, r * step, template.width(), template.height())
                 .ok_or(MatchError::WindowTooSmall)?;

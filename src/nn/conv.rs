@@ -117,9 +117,10 @@ pub fn conv2d_s8(
     if scratch.len() < field {
         return Err(NnError::ScratchTooSmall);
     }
-    let col = &mut scratch[..field];
-    let weights = &weights[..oc * field];
-    let mut out_i = 0usize;
+    let (Some(col), Some(weights)) = (scratch.get_mut(..field), weights.get(..oc * field)) else {
+        return Err(NnError::BufferSize);
+    };
+    let mut outs = output.iter_mut();
     for oy in 0..oh {
         for ox in 0..ow {
             // Gather the receptive field, widened to i16 with the input offset applied;
@@ -129,12 +130,13 @@ pub fn conv2d_s8(
                 let iy = (oy * p.stride + ky) as isize - p.pad as isize;
                 for kx in 0..k {
                     let ix = (ox * p.stride + kx) as isize - p.pad as isize;
-                    let dst = &mut col[ci..ci + ic];
+                    let dst = col.get_mut(ci..ci + ic).ok_or(NnError::ScratchTooSmall)?;
                     if iy < 0 || ix < 0 || iy as usize >= in_dims.h || ix as usize >= in_dims.w {
                         dst.fill(0);
                     } else {
                         let base = (iy as usize * in_dims.w + ix as usize) * ic;
-                        for (d, &s) in dst.iter_mut().zip(&input[base..base + ic]) {
+                        let src = input.get(base..base + ic).ok_or(NnError::BufferSize)?;
+                        for (d, &s) in dst.iter_mut().zip(src) {
                             *d = (s as i32 + p.input_offset) as i16;
                         }
                     }
@@ -142,20 +144,19 @@ pub fn conv2d_s8(
                 }
             }
             let col: &[i16] = col;
-            for (c, w) in weights.chunks_exact(field).enumerate() {
-                let mut acc = bias[c];
+            // One output channel per `field` weights (validated lengths above; the
+            // checked splits keep this loop free of panic paths).
+            let mut rest = weights;
+            for ((&b, &m), &sh) in bias.iter().zip(multiplier).zip(shift).take(oc) {
+                let (Some((w, r)), Some(y)) = (rest.split_at_checked(field), outs.next()) else {
+                    return Err(NnError::BufferSize);
+                };
+                rest = r;
+                let mut acc = b;
                 for (&a, &b) in col.iter().zip(w) {
                     acc += a as i32 * b as i32;
                 }
-                output[out_i] = requantize(
-                    acc,
-                    multiplier[c],
-                    shift[c],
-                    p.output_offset,
-                    p.act_min,
-                    p.act_max,
-                );
-                out_i += 1;
+                *y = requantize(acc, m, sh, p.output_offset, p.act_min, p.act_max);
             }
         }
     }

@@ -52,25 +52,31 @@ pub fn dense_s8(
     {
         return Err(NnError::BufferSize);
     }
-    let weights = &weights[..in_f * out_f];
-    for (row, out) in input
-        .chunks_exact(in_f)
-        .take(rows)
-        .zip(output.chunks_exact_mut(out_f))
-    {
-        for (o, (w, y)) in weights.chunks_exact(in_f).zip(out.iter_mut()).enumerate() {
-            let mut acc = bias[o];
+    let (Some(weights), Some(input), Some(output)) = (
+        weights.get(..in_f * out_f),
+        input.get(..rows * in_f),
+        output.get_mut(..rows * out_f),
+    ) else {
+        return Err(NnError::BufferSize);
+    };
+    // Checked splits instead of `chunks_exact` keep this free of panic paths.
+    let (mut rows_in, mut outs) = (input, output.iter_mut());
+    for _ in 0..rows {
+        let Some((row, r)) = rows_in.split_at_checked(in_f) else {
+            return Err(NnError::BufferSize);
+        };
+        rows_in = r;
+        let mut rest = weights;
+        for ((&b, &m), &sh) in bias.iter().zip(multiplier).zip(shift).take(out_f) {
+            let (Some((w, r)), Some(y)) = (rest.split_at_checked(in_f), outs.next()) else {
+                return Err(NnError::BufferSize);
+            };
+            rest = r;
+            let mut acc = b;
             for (&a, &b) in row.iter().zip(w) {
                 acc += (a as i32 + p.input_offset) * b as i32;
             }
-            *y = requantize(
-                acc,
-                multiplier[o],
-                shift[o],
-                p.output_offset,
-                p.act_min,
-                p.act_max,
-            );
+            *y = requantize(acc, m, sh, p.output_offset, p.act_min, p.act_max);
         }
     }
     Ok(())

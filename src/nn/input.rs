@@ -29,7 +29,11 @@ pub const fn isqrt_u64(n: u64) -> u64 {
     // Newton from above converges monotonically to floor(sqrt(n)).
     while y < x {
         x = y;
-        y = (x + n / x) / 2;
+        // x >= floor(sqrt(n)) >= 1 throughout; the match keeps the division panic free.
+        y = match n.checked_div(x) {
+            Some(q) => (x + q) / 2,
+            None => return 0,
+        };
     }
     x
 }
@@ -127,22 +131,23 @@ pub fn prepare_input_view(
         return Err(NnError::FlatInput);
     }
     let (n, s) = (n as i64, s as i64);
-    for oy in 0..INPUT_SIDE {
-        for ox in 0..INPUT_SIDE {
-            out[oy * INPUT_SIDE + ox] = match cell(src, mask, oy, ox) {
-                None => 0,
-                Some(v) => {
-                    let num = INPUT_UNITS_PER_SIGMA * (n * v as i64 - s);
-                    // Round half away from zero.
-                    let r = if num >= 0 {
-                        (2 * num + std_n) / (2 * std_n)
-                    } else {
-                        (2 * num - std_n) / (2 * std_n)
-                    };
-                    r.clamp(-127, 127) as i8
-                }
-            };
-        }
+    // std_n >= 4 n > 0 here (the flat-input check), so the divisor is never zero.
+    let den = 2 * std_n;
+    for (i, o) in out.iter_mut().enumerate() {
+        let (oy, ox) = (i / INPUT_SIDE, i % INPUT_SIDE);
+        *o = match cell(src, mask, oy, ox) {
+            None => 0,
+            Some(v) => {
+                let num = INPUT_UNITS_PER_SIGMA * (n * v as i64 - s);
+                // Round half away from zero.
+                let r = if num >= 0 {
+                    (2 * num + std_n).checked_div(den)
+                } else {
+                    (2 * num - std_n).checked_div(den)
+                };
+                r.ok_or(NnError::FlatInput)?.clamp(-127, 127) as i8
+            }
+        };
     }
     Ok(())
 }

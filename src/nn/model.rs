@@ -178,7 +178,9 @@ impl<'a> SiameseNet<'a> {
         arena: &mut Arena,
         out: &mut [i8; EMBED_LEN],
     ) -> Result<(), NnError> {
-        arena.a[..INPUT_LEN].copy_from_slice(input);
+        for (d, &v) in arena.a.iter_mut().zip(input) {
+            *d = v;
+        }
         let Arena { a, b, scratch } = arena;
         let (mut src, mut dst): (&mut [i8], &mut [i8]) = (&mut a[..], &mut b[..]);
         for (i, l) in self.net.layers.iter().enumerate() {
@@ -196,6 +198,16 @@ impl<'a> SiameseNet<'a> {
             let last = i + 1 == LAYERS;
             let target: &mut [i8] = if last { &mut out[..] } else { &mut dst[..] };
             let oc = s.out_c;
+            // Sizes were validated against SPEC when the weights were parsed; a mismatch
+            // here is a typed error, never a panic.
+            let (Some(input), Some(bias), Some(multiplier), Some(shift)) = (
+                src.get(..in_dims.len()),
+                l.bias.get(..oc),
+                l.multiplier.get(..oc),
+                l.shift.get(..oc),
+            ) else {
+                return Err(NnError::BufferSize);
+            };
             match s.kind {
                 LayerKind::Conv => conv2d_s8(
                     &ConvParams {
@@ -207,12 +219,12 @@ impl<'a> SiameseNet<'a> {
                         act_min: l.act_min,
                         act_max: l.act_max,
                     },
-                    &src[..in_dims.len()],
+                    input,
                     in_dims,
                     l.weights,
-                    &l.bias[..oc],
-                    &l.multiplier[..oc],
-                    &l.shift[..oc],
+                    bias,
+                    multiplier,
+                    shift,
                     target,
                     out_dims,
                     &mut scratch[..],
@@ -227,11 +239,11 @@ impl<'a> SiameseNet<'a> {
                     in_dims.h * in_dims.w,
                     s.in_c,
                     oc,
-                    &src[..in_dims.len()],
+                    input,
                     l.weights,
-                    &l.bias[..oc],
-                    &l.multiplier[..oc],
-                    &l.shift[..oc],
+                    bias,
+                    multiplier,
+                    shift,
                     target,
                 )?,
             }
@@ -258,8 +270,8 @@ pub fn cosine_q15(a: &[i8], b: &[i8], zp: i32) -> i32 {
         nb += (y * y) as u64;
     }
     let den = isqrt_u64(na.saturating_mul(nb)) as i64;
-    if den == 0 {
-        return 0;
-    }
-    ((dot << 15) / den).clamp(-32768, 32768) as i32
+    // None for den == 0 (an all-zero-point embedding).
+    (dot << 15)
+        .checked_div(den)
+        .map_or(0, |c| c.clamp(-32768, 32768) as i32)
 }

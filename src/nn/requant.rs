@@ -64,7 +64,9 @@ pub fn requantize(
     act_max: i32,
 ) -> i8 {
     let v = multiply_by_quantized_multiplier(acc, multiplier, shift).saturating_add(output_offset);
-    v.clamp(act_min, act_max) as i8
+    // max-then-min equals `clamp` for act_min <= act_max (validated with the weights)
+    // without clamp's panic path for act_min > act_max.
+    v.max(act_min).min(act_max) as i8
 }
 
 #[cfg(test)]

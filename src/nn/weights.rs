@@ -261,17 +261,23 @@ impl<'a> Reader<'a> {
                 got: self.b.len(),
             });
         }
-        let s = &self.b[self.pos..stop];
+        let s = self.b.get(self.pos..stop).ok_or(WeightsError::Truncated {
+            needed: stop.saturating_add(4),
+            got: self.b.len(),
+        })?;
         self.pos = stop;
         Ok(s)
     }
     fn array<const M: usize>(&mut self) -> Result<[u8; M], WeightsError> {
         let mut a = [0u8; M];
-        a.copy_from_slice(self.take(M)?);
+        for (d, &v) in a.iter_mut().zip(self.take(M)?) {
+            *d = v;
+        }
         Ok(a)
     }
     fn u8(&mut self) -> Result<u8, WeightsError> {
-        Ok(self.array::<1>()?[0])
+        let [v] = self.array::<1>()?;
+        Ok(v)
     }
     fn u16(&mut self) -> Result<u16, WeightsError> {
         Ok(u16::from_le_bytes(self.array()?))
@@ -296,7 +302,7 @@ pub fn parse<'a, const N: usize>(
     spec: &[LayerSpec; N],
 ) -> Result<QNetwork<'a, N>, WeightsError> {
     if bytes.len() < HEADER_BYTES + 4 {
-        if bytes.len() >= 4 && bytes[..4] != MAGIC {
+        if bytes.get(..4).is_some_and(|m| m != MAGIC) {
             return Err(WeightsError::BadMagic);
         }
         return Err(WeightsError::Truncated {
@@ -381,19 +387,30 @@ pub fn parse<'a, const N: usize>(
             shape_error.get_or_insert(WeightsError::ShapeMismatch { layer: i });
             continue;
         }
-        let l = &mut net.layers[i];
+        let Some(l) = net.layers.get_mut(i) else {
+            continue;
+        };
         l.spec = file_spec;
         l.input_zp = l_input_zp;
         l.output_zp = output_zp;
         l.act_min = act_min;
         l.act_max = act_max;
         l.output_scale = output_scale;
-        for c in 0..out_c {
-            let w =
-                |s: &[u8]| i32::from_le_bytes([s[4 * c], s[4 * c + 1], s[4 * c + 2], s[4 * c + 3]]);
-            l.bias[c] = w(bias);
-            l.multiplier[c] = w(mult);
-            l.shift[c] = shift[c] as i8 as i32;
+        // out_c <= MAX_CHANNELS (checked above); `take` gave exactly out_c entries each.
+        let le = |s: &[u8]| match *s {
+            [a, b, c, d] => i32::from_le_bytes([a, b, c, d]),
+            _ => 0,
+        };
+        for (((b, m), sh), ((bs, ms), &ss)) in l
+            .bias
+            .iter_mut()
+            .zip(l.multiplier.iter_mut())
+            .zip(l.shift.iter_mut())
+            .zip(bias.chunks_exact(4).zip(mult.chunks_exact(4)).zip(shift))
+        {
+            *b = le(bs);
+            *m = le(ms);
+            *sh = ss as i8 as i32;
         }
         l.weights = as_i8(weights);
     }
@@ -402,13 +419,22 @@ pub fn parse<'a, const N: usize>(
             extra: r.end - r.pos,
         });
     }
-    let stored = u32::from_le_bytes([
-        bytes[r.end],
-        bytes[r.end + 1],
-        bytes[r.end + 2],
-        bytes[r.end + 3],
-    ]);
-    let computed = crc32(&bytes[..r.end]);
+    let (content, trailer) = bytes
+        .split_at_checked(r.end)
+        .ok_or(WeightsError::Truncated {
+            needed: r.end.saturating_add(4),
+            got: bytes.len(),
+        })?;
+    let stored = match *trailer {
+        [a, b, c, d] => u32::from_le_bytes([a, b, c, d]),
+        _ => {
+            return Err(WeightsError::Truncated {
+                needed: r.end.saturating_add(4),
+                got: bytes.len(),
+            })
+        }
+    };
+    let computed = crc32(content);
     if stored != computed {
         return Err(WeightsError::CrcMismatch { stored, computed });
     }
@@ -437,9 +463,8 @@ fn validate_quantization<const N: usize>(net: &QNetwork<'_, N>) -> Result<(), We
         {
             return Err(bad);
         }
-        for c in 0..l.spec.out_c {
-            let m = l.multiplier[c];
-            let s = l.shift[c];
+        let oc = l.spec.out_c.min(MAX_CHANNELS);
+        for (&m, &s) in l.multiplier.iter().zip(&l.shift).take(oc) {
             if !(m == 0 || m >= 1 << 30) || !(SHIFT_MIN..=SHIFT_MAX).contains(&s) {
                 return Err(bad);
             }
