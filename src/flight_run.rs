@@ -9,8 +9,11 @@
 //! 32-bit FNV-1a value.
 //!
 //! Stages ([`Stage`]):
-//! 1. `lut_build`: the reprojection lookup table for the pose prior ([`Lut::build`]);
-//! 2. `reproject`: the four frames sampled into the top-down image and mask ([`Lut::apply`]);
+//! 1. `lut_build`: the reprojection lookup table for the pose prior, built in bands of
+//!    [`LUT_BAND_ROWS`] grid rows ([`Lut::build_rows`]) in the localizer's scratch;
+//! 2. `reproject`: the four frames sampled through each band into the top-down image and
+//!    mask ([`Lut::apply`]). Stages 1 and 2 alternate band by band; each stage's clock
+//!    hooks are called once per band (the firmware adds the spans up).
 //! 3. `localize`: masked NCC of the top-down image over the map region, coarse dense pass,
 //!    fine re-scoring of the best peaks and sub-pixel refinement ([`localize()`]);
 //! 4. `nn_embed`: the int8 siamese CNN ([`crate::nn`], shipped weights, CRC-checked)
@@ -152,17 +155,24 @@ pub struct FlightConfig {
     pub localize: LocalizeConfig,
 }
 
+/// Grid rows per band of the reprojection table: one band's cells (8 bytes each, 40,000
+/// bytes for the 200-cell grid) and its overlap taps (at most one per cell) are resident
+/// at a time, in the localizer's scratch (the stages run one after the other).
+pub const LUT_BAND_ROWS: usize = 25;
+
 /// Element counts of every scratch buffer of one fix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ScratchSizes {
-    /// Primary table cells (`n * n`, 8 bytes each).
-    pub cells: usize,
+    /// Cells of one band of the table (`LUT_BAND_ROWS * n` at most); they live in
+    /// `loc_floats` during the table stages.
+    pub band_cells: usize,
     /// Top-down image and mask, bytes each (`n * n`).
     pub top: usize,
-    /// Localization byte scratch.
+    /// Localization byte scratch (also holds one band's overlap taps, 8 bytes each, one
+    /// per band cell at most, so no tap is ever dropped).
     pub loc_bytes: usize,
-    /// Localization `f32` scratch (response maps).
+    /// Localization `f32` scratch (response maps; also holds one band's cells).
     pub loc_floats: usize,
 }
 
@@ -175,20 +185,23 @@ pub fn scratch_sizes(
     cfg.grid.validate()?;
     let n = cfg.grid.n;
     let (loc_bytes, loc_floats) = localize::buffer_sizes(n, n, map_w, map_h, &cfg.localize)?;
+    let band_cells = LUT_BAND_ROWS.min(n) * n;
+    let cell = core::mem::size_of::<Cell>();
+    let tap = core::mem::size_of::<Tap>();
+    let float = core::mem::size_of::<f32>();
     Ok(ScratchSizes {
-        cells: cfg.grid.cells(),
+        band_cells,
         top: cfg.grid.cells(),
-        loc_bytes,
-        loc_floats,
+        // Taps need 4-byte alignment: up to 3 bytes of a byte buffer go to aligning.
+        loc_bytes: loc_bytes.max(band_cells * tap + 3),
+        loc_floats: loc_floats.max((band_cells * cell).div_ceil(float)),
     })
 }
 
 /// Caller-provided working memory of one fix (static buffers on the target).
+/// The reprojection table has no buffer of its own: its bands live in `loc_floats` (cells)
+/// and `loc_bytes` (overlap taps) before the localizer needs them.
 pub struct Scratch<'a> {
-    /// Primary table, exactly [`ScratchSizes::cells`] cells.
-    pub cells: &'a mut [Cell],
-    /// Secondary taps of overlap cells (any capacity; see `reproject::DEFAULT_EXTRA`).
-    pub extra: &'a mut [Tap],
     /// Top-down image, at least [`ScratchSizes::top`] bytes.
     pub top: &'a mut [u8],
     /// Validity mask, at least [`ScratchSizes::top`] bytes.
@@ -350,6 +363,86 @@ impl FlightOutputs {
     }
 }
 
+/// Stages 1 and 2: builds the table band by band ([`LUT_BAND_ROWS`] rows) with its cells in
+/// `floats` and its overlap taps in `bytes`, and samples the frames through each band into
+/// its rows of `top` and `mask`. Returns the summed statistics of the bands (equal to a
+/// whole table's: every band has room for a tap per cell, so none is dropped) and the
+/// merged apply report.
+#[allow(clippy::too_many_arguments)]
+fn build_and_apply_banded<C: StageClock>(
+    inputs: &FlightInputs<'_>,
+    cfg: &FlightConfig,
+    sizes: &ScratchSizes,
+    floats: &mut [f32],
+    bytes: &mut [u8],
+    top: &mut [u8],
+    mask: &mut [u8],
+    clock: &mut C,
+) -> Result<(BuildStats, ApplyReport), FlightError> {
+    let n = cfg.grid.n;
+    // Safety: `Cell` and `Tap` are `repr(C)` structs of integers without padding (8 bytes
+    // each), valid for every bit pattern, and `f32` / `u8` are too, so viewing the buffers'
+    // aligned middles as cells and taps (and the localizer later writing them as floats and
+    // bytes again) never creates an invalid value; `align_to_mut` handles the alignment.
+    let (_, cells, _) = unsafe { floats.align_to_mut::<Cell>() };
+    // Safety: as above.
+    let (_, extra, _) = unsafe { bytes.align_to_mut::<Tap>() };
+    let cells = cells
+        .get_mut(..sizes.band_cells)
+        .ok_or(FlightError::ScratchTooSmall)?;
+    let extra = extra
+        .get_mut(..sizes.band_cells)
+        .ok_or(FlightError::ScratchTooSmall)?;
+    let stride = inputs.params.width_px as usize;
+    let [f0, f1, f2, f3] = inputs.frames;
+    let frames = [Some(f0), Some(f1), Some(f2), Some(f3)];
+    let mut stats = BuildStats::default();
+    let mut report = ApplyReport {
+        status: [FrameStatus::Missing; 4],
+        valid_cells: 0,
+        lost_cells: 0,
+    };
+    let mut row = 0usize;
+    while row < n {
+        let end = (row + LUT_BAND_ROWS).min(n);
+        let band = (end - row) * n;
+        let (Some(band_cells), Some(band_top), Some(band_mask)) = (
+            cells.get_mut(..band),
+            top.get_mut(row * n..end * n),
+            mask.get_mut(row * n..end * n),
+        ) else {
+            return Err(FlightError::ScratchTooSmall);
+        };
+        clock.begin(Stage::LutBuild);
+        let lut = Lut::build_rows(
+            band_cells,
+            extra,
+            &inputs.params,
+            &inputs.pose,
+            &cfg.grid,
+            stride,
+            row..end,
+        )?;
+        clock.end(Stage::LutBuild);
+        clock.begin(Stage::Reproject);
+        let a = lut.apply(&frames, band_top, band_mask)?;
+        clock.end(Stage::Reproject);
+        let s = lut.stats();
+        stats.valid_cells += s.valid_cells;
+        stats.blended_cells += s.blended_cells;
+        stats.dropped_taps += s.dropped_taps;
+        for (t, v) in stats.cells_per_view.iter_mut().zip(s.cells_per_view) {
+            *t += v;
+        }
+        // Every band classifies the same frames the same way.
+        report.status = a.status;
+        report.valid_cells += a.valid_cells;
+        report.lost_cells += a.lost_cells;
+        row = end;
+    }
+    Ok((stats, report))
+}
+
 /// Runs the whole fix on `inputs` with `cfg` in `scratch`, calling `clock` around every
 /// stage. The prior is `inputs.pose` (position and heading).
 pub fn run<C: StageClock>(
@@ -368,28 +461,16 @@ pub fn run<C: StageClock>(
         .mask
         .get_mut(..sizes.top)
         .ok_or(FlightError::ScratchTooSmall)?;
-    let cells = scratch
-        .cells
-        .get_mut(..sizes.cells)
-        .ok_or(FlightError::ScratchTooSmall)?;
-
-    clock.begin(Stage::LutBuild);
-    let stride = inputs.params.width_px as usize;
-    let lut = Lut::build(
-        cells,
-        scratch.extra,
-        &inputs.params,
-        &inputs.pose,
-        &cfg.grid,
-        stride,
+    let (lut_stats, apply) = build_and_apply_banded(
+        inputs,
+        cfg,
+        &sizes,
+        scratch.loc_floats,
+        scratch.loc_bytes,
+        top,
+        mask,
+        clock,
     )?;
-    clock.end(Stage::LutBuild);
-
-    clock.begin(Stage::Reproject);
-    let [f0, f1, f2, f3] = inputs.frames;
-    let apply = lut.apply(&[Some(f0), Some(f1), Some(f2), Some(f3)], top, mask)?;
-    clock.end(Stage::Reproject);
-    let lut_stats = *lut.stats();
 
     clock.begin(Stage::Localize);
     let template = ImageView::new(top, n, n).map_err(|_| FlightError::ScratchTooSmall)?;
@@ -559,7 +640,9 @@ mod tests {
     fn scratch_sizes_follow_the_grid_and_map() {
         let cfg = FlightConfig::default();
         let s = scratch_sizes(&cfg, 1200, 1200).unwrap();
-        assert_eq!(s.cells, 200 * 200);
+        assert_eq!(s.band_cells, LUT_BAND_ROWS * 200);
+        assert!(s.loc_floats * 4 >= s.band_cells * 8);
+        assert!(s.loc_bytes >= s.band_cells * 8 + 3);
         assert_eq!(s.top, 200 * 200);
         let small = scratch_sizes(&cfg, 400, 400).unwrap();
         assert!(small.loc_floats < s.loc_floats);

@@ -76,7 +76,8 @@ impl StageClock for StageTicks {
         let t = self.now();
         let i = stage as usize;
         if let (Some(b), Some(s)) = (self.began.get(i), self.spent.get_mut(i)) {
-            *s = t.wrapping_sub(*b);
+            // A stage may run in several spans (the table stages run band by band).
+            *s = s.wrapping_add(t.wrapping_sub(*b));
         }
     }
 }

@@ -40,7 +40,7 @@ use orbfix::image::ImageView;
 use orbfix::localize::LocalizeConfig;
 use orbfix::nn::input::INPUT_LEN;
 use orbfix::nn::model::{Arena, EMBED_LEN};
-use orbfix::reproject::{table_len, GridSpec, LutStorage, DEFAULT_EXTRA};
+use orbfix::reproject::{table_len, GridSpec};
 use report::Line;
 
 /// The four frames, dataset order, packed (external memory: inputs).
@@ -58,12 +58,10 @@ static MAP: [u8; vectors::MAP_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/
 const FRAME_LEN: usize = vectors::WIDTH * vectors::HEIGHT;
 const CELLS: usize = table_len(vectors::GRID_N);
 
-/// The reprojection table, 8 bytes per cell plus the overlap taps: it does not fit the
-/// working-RAM budget, so it lives in external memory and is accounted separately
-/// (`external_scratch_bytes` of the budget).
-#[link_section = ".xscratch.lut"]
-static mut LUT: LutStorage<CELLS, DEFAULT_EXTRA> = LutStorage::new();
-// Working memory in SRAM (.bss): top-down image, mask and the localizer's scratch.
+// Working memory in SRAM (.bss): top-down image, mask and the localizer's scratch. The
+// reprojection table has no buffer of its own: the core builds and applies it in bands of
+// `flight_run::LUT_BAND_ROWS` grid rows inside LOC_FLOATS (cells) and LOC_BYTES (overlap
+// taps) before the localizer uses them.
 static mut TOP: [u8; CELLS] = [0; CELLS];
 static mut MASK: [u8; CELLS] = [0; CELLS];
 static mut LOC_BYTES: [u8; vectors::LOC_BYTES] = [0; vectors::LOC_BYTES];
@@ -124,10 +122,7 @@ fn main() -> ! {
     // Safety: `main` runs once and is the only code that touches these statics (the
     // SysTick and HardFault handlers do not), so these are the only references to them.
     let mut scratch = unsafe {
-        let lut = &mut *addr_of_mut!(LUT);
         Scratch {
-            cells: &mut lut.cells,
-            extra: &mut lut.extra,
             top: &mut *addr_of_mut!(TOP),
             mask: &mut *addr_of_mut!(MASK),
             loc_bytes: &mut *addr_of_mut!(LOC_BYTES),

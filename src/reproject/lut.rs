@@ -1,8 +1,8 @@
 //! Building the lookup table (set-up math, `f32`; once per stop).
 
 use super::{
-    table_len, Buffer, Cell, GridSpec, ReprojectError, Tap, FRAC_BITS, FRAC_STEPS, NODATA,
-    OFF_MASK, VIEW_SHIFT,
+    Buffer, Cell, GridSpec, ReprojectError, Tap, FRAC_BITS, FRAC_STEPS, NODATA, OFF_MASK,
+    VIEW_SHIFT,
 };
 use crate::camera::{Camera, CameraParams, RoverPose, View};
 
@@ -35,6 +35,8 @@ pub struct Lut<'a> {
     pub(super) cells: &'a [Cell],
     pub(super) extra: &'a [Tap],
     pub(super) grid: GridSpec,
+    /// First grid row (north-up) of the table's cells: 0 for a whole table.
+    pub(super) row0: usize,
     pub(super) width: usize,
     pub(super) height: usize,
     pub(super) stride: usize,
@@ -117,7 +119,30 @@ impl<'a> Lut<'a> {
         grid: &GridSpec,
         stride: usize,
     ) -> Result<Self, ReprojectError> {
+        Self::build_rows(cells, extra, params, pose, grid, stride, 0..grid.n)
+    }
+
+    /// Builds the band of grid rows `rows` (north-up row indices, `start < end <= grid.n`)
+    /// of the table of `grid` into `cells` (exactly `(end - start) * grid.n`) and `extra`
+    /// (any capacity; secondary taps of that band's overlap cells). Every cell is the one
+    /// [`Lut::build`] makes for the whole grid, so applying the bands one after the other
+    /// to the matching row ranges of the output ([`Lut::apply`] with
+    /// `out[start * n..end * n]`) gives the whole table's image bit for bit, with only one
+    /// band of cells resident (8 bytes per cell). The statistics are the band's.
+    pub fn build_rows(
+        cells: &'a mut [Cell],
+        extra: &'a mut [Tap],
+        params: &CameraParams,
+        pose: &RoverPose,
+        grid: &GridSpec,
+        stride: usize,
+        rows: core::ops::Range<usize>,
+    ) -> Result<Self, ReprojectError> {
         grid.validate()?;
+        if rows.start >= rows.end || rows.end > grid.n {
+            return Err(ReprojectError::BadBand);
+        }
+        let row0 = rows.start;
         params.validate()?;
         pose.validate()?;
         let width = params.width_px as usize;
@@ -130,10 +155,11 @@ impl<'a> Lut<'a> {
             _ => return Err(ReprojectError::FrameTooLarge),
         }
         let n = grid.n;
-        if cells.len() != table_len(n) {
+        let needed = (rows.end - rows.start) * n;
+        if cells.len() != needed {
             return Err(ReprojectError::BufferSize {
                 buffer: Buffer::Cells,
-                needed: table_len(n),
+                needed,
                 got: cells.len(),
             });
         }
@@ -149,7 +175,7 @@ impl<'a> Lut<'a> {
         let mut stats = BuildStats::default();
         let mut n_extra = 0usize;
 
-        for (row, row_cells) in cells.chunks_exact_mut(n).enumerate() {
+        for (row, row_cells) in (row0..).zip(cells.chunks_exact_mut(n)) {
             let dy = (half - row as f32 - 0.5) * res;
             // Per view: the row's constant part of U, V, W.
             let mut base = [[0f32; 3]; 4];
@@ -261,6 +287,7 @@ impl<'a> Lut<'a> {
             cells,
             extra: extra.get(..n_extra).unwrap_or(&[]),
             grid: *grid,
+            row0,
             width,
             height,
             stride,
@@ -271,6 +298,12 @@ impl<'a> Lut<'a> {
     /// The grid this table covers.
     pub fn grid(&self) -> &GridSpec {
         &self.grid
+    }
+
+    /// Grid rows `(first, end)` this table covers (north-up; `(0, n)` for a whole table).
+    pub fn rows(&self) -> (usize, usize) {
+        let n = self.grid.n.max(1);
+        (self.row0, self.row0 + self.cells.len() / n)
     }
 
     /// What the build produced.

@@ -277,6 +277,8 @@ pub enum ReprojectError {
     BadResolution,
     /// Maximum range is zero, negative or NaN.
     BadMaxRange,
+    /// A band of grid rows is empty or reaches past the grid ([`Lut::build_rows`]).
+    BadBand,
     /// Frames must be at least 2 x 2 pixels with `stride >= width`.
     FrameTooSmall,
     /// A frame's `stride * height` does not fit the table's 30-bit offsets.

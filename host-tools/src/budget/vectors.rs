@@ -10,7 +10,6 @@ use orbfix::geo::GeoRef;
 use orbfix::image::ImageView;
 use orbfix::nn::input::INPUT_LEN;
 use orbfix::nn::model::{Arena, EMBED_LEN};
-use orbfix::reproject::{Cell, Tap};
 use std::path::Path;
 
 /// Everything the firmware embeds.
@@ -228,8 +227,6 @@ impl Vectors {
     pub fn host_run(&self, cfg: &FlightConfig) -> Result<FlightOutputs> {
         let sz = flight_run::scratch_sizes(cfg, self.map_w, self.map_h)
             .map_err(|e| anyhow::anyhow!("bad flight configuration: {e:?}"))?;
-        let mut cells = vec![Cell::default(); sz.cells];
-        let mut extra = vec![Tap::default(); orbfix::reproject::DEFAULT_EXTRA];
         let mut top = vec![0u8; sz.top];
         let mut mask = vec![0u8; sz.top];
         let mut loc_bytes = vec![0u8; sz.loc_bytes];
@@ -238,8 +235,6 @@ impl Vectors {
         let mut nn_input = Box::new([0i8; INPUT_LEN]);
         let mut nn_embedding = Box::new([0i8; EMBED_LEN]);
         let mut scratch = Scratch {
-            cells: &mut cells,
-            extra: &mut extra,
             top: &mut top,
             mask: &mut mask,
             loc_bytes: &mut loc_bytes,

@@ -1,0 +1,179 @@
+//! Banded reprojection table ([`Lut::build_rows`]): applying the bands one after the other
+//! must give the whole table's top-down image, mask and statistics bit for bit.
+
+use orbfix::camera::{CameraParams, RoverPose};
+use orbfix::image::ImageView;
+use orbfix::reproject::{
+    ApplyReport, Buffer, BuildStats, Cell, GridSpec, Lut, ReprojectError, Tap,
+};
+
+/// Deterministic textured frames (xorshift noise smoothed along rows so bilinear weights
+/// matter), one per view, `w x h` with stride `w`.
+fn frames(w: usize, h: usize, seed: u32) -> Vec<Vec<u8>> {
+    (0..4u32)
+        .map(|v| {
+            let mut s = seed.wrapping_mul(2_654_435_761).wrapping_add(v + 1) | 1;
+            let mut prev = 128u32;
+            (0..w * h)
+                .map(|_| {
+                    s ^= s << 13;
+                    s ^= s >> 17;
+                    s ^= s << 5;
+                    prev = (prev * 3 + (s & 255)) / 4;
+                    prev as u8
+                })
+                .collect()
+        })
+        .collect()
+}
+
+struct Out {
+    top: Vec<u8>,
+    mask: Vec<u8>,
+    stats: BuildStats,
+    report: ApplyReport,
+}
+
+fn whole(
+    p: &CameraParams,
+    pose: &RoverPose,
+    g: &GridSpec,
+    views: &[Option<ImageView<'_>>; 4],
+) -> Out {
+    let n = g.n;
+    let mut cells = vec![Cell::EMPTY; n * n];
+    let mut extra = vec![Tap::EMPTY; n * n];
+    let lut = Lut::build(&mut cells, &mut extra, p, pose, g, p.width_px as usize).unwrap();
+    let mut top = vec![7u8; n * n];
+    let mut mask = vec![7u8; n * n];
+    let report = lut.apply(views, &mut top, &mut mask).unwrap();
+    Out {
+        top,
+        mask,
+        stats: *lut.stats(),
+        report,
+    }
+}
+
+fn banded(
+    p: &CameraParams,
+    pose: &RoverPose,
+    g: &GridSpec,
+    views: &[Option<ImageView<'_>>; 4],
+    band_rows: usize,
+) -> Out {
+    let n = g.n;
+    // One band's worth of cells and taps, reused for every band.
+    let mut cells = vec![Cell::EMPTY; band_rows * n];
+    let mut extra = vec![Tap::EMPTY; band_rows * n];
+    let mut top = vec![7u8; n * n];
+    let mut mask = vec![7u8; n * n];
+    let mut stats = BuildStats::default();
+    let mut report: Option<ApplyReport> = None;
+    let mut row = 0;
+    while row < n {
+        let end = (row + band_rows).min(n);
+        let c = &mut cells[..(end - row) * n];
+        let lut =
+            Lut::build_rows(c, &mut extra, p, pose, g, p.width_px as usize, row..end).unwrap();
+        assert_eq!(lut.rows(), (row, end));
+        let a = lut
+            .apply(
+                views,
+                &mut top[row * n..end * n],
+                &mut mask[row * n..end * n],
+            )
+            .unwrap();
+        let s = lut.stats();
+        stats.valid_cells += s.valid_cells;
+        stats.blended_cells += s.blended_cells;
+        stats.dropped_taps += s.dropped_taps;
+        for (t, v) in stats.cells_per_view.iter_mut().zip(s.cells_per_view) {
+            *t += v;
+        }
+        report = Some(match report {
+            None => a,
+            Some(r) => {
+                assert_eq!(r.status, a.status);
+                ApplyReport {
+                    status: r.status,
+                    valid_cells: r.valid_cells + a.valid_cells,
+                    lost_cells: r.lost_cells + a.lost_cells,
+                }
+            }
+        });
+        row = end;
+    }
+    Out {
+        top,
+        mask,
+        stats,
+        report: report.unwrap(),
+    }
+}
+
+#[test]
+fn bands_equal_the_whole_table_bit_for_bit() {
+    let p = CameraParams::default();
+    let (w, h) = (p.width_px as usize, p.height_px as usize);
+    let data = frames(w, h, 1);
+    let all: Vec<ImageView<'_>> = data
+        .iter()
+        .map(|d| ImageView::new(d, w, h).unwrap())
+        .collect();
+    let g = GridSpec::new(200, 0.25);
+    let poses = [
+        RoverPose::level(10.0, -4.0, 0.0, 0.0),
+        RoverPose {
+            x_m: 3.0,
+            y_m: 2.0,
+            ground_z_m: 1.5,
+            heading_deg: 37.0,
+            pitch_deg: 4.0,
+            roll_deg: -3.0,
+        },
+    ];
+    for pose in &poses {
+        // All four frames (the run-length fast path) and one missing (fallback taps).
+        let sets = [
+            [Some(all[0]), Some(all[1]), Some(all[2]), Some(all[3])],
+            [Some(all[0]), None, Some(all[2]), Some(all[3])],
+        ];
+        for views in &sets {
+            let want = whole(&p, pose, &g, views);
+            assert!(want.stats.valid_cells > 10_000, "{:?}", want.stats);
+            assert!(want.stats.blended_cells > 100, "{:?}", want.stats);
+            assert_eq!(want.stats.dropped_taps, 0);
+            for band_rows in [25, 7, 1, 200] {
+                let got = banded(&p, pose, &g, views, band_rows);
+                assert!(got.top == want.top, "top, {band_rows} rows per band");
+                assert!(got.mask == want.mask, "mask, {band_rows} rows per band");
+                assert_eq!(got.stats, want.stats, "{band_rows} rows per band");
+                assert_eq!(got.report, want.report, "{band_rows} rows per band");
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_bands_are_typed_errors() {
+    let p = CameraParams::default();
+    let pose = RoverPose::level(0.0, 0.0, 0.0, 0.0);
+    let g = GridSpec::new(20, 0.5);
+    let mut cells = vec![Cell::EMPTY; 5 * 20];
+    let mut extra = vec![Tap::EMPTY; 4];
+    let mut build = |cells: &mut [Cell], rows: core::ops::Range<usize>| {
+        Lut::build_rows(cells, &mut extra, &p, &pose, &g, 640, rows).map(|l| l.rows())
+    };
+    assert_eq!(build(&mut cells, 3..3), Err(ReprojectError::BadBand));
+    assert_eq!(build(&mut cells, 16..21), Err(ReprojectError::BadBand));
+    assert_eq!(
+        build(&mut cells, 0..4),
+        Err(ReprojectError::BufferSize {
+            buffer: Buffer::Cells,
+            needed: 80,
+            got: 100
+        })
+    );
+    assert_eq!(build(&mut cells, 15..20), Ok((15, 20)));
+}
