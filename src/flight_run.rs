@@ -32,7 +32,7 @@ use crate::nn::input::{prepare_input, INPUT_LEN};
 use crate::nn::model::{self as nn_model, Arena, EMBED_LEN};
 use crate::nn::NnError;
 use crate::reproject::{
-    ApplyReport, BuildStats, Cell, FrameStatus, GridSpec, Lut, ReprojectError, Tap,
+    classify_frame, ApplyReport, BuildStats, Cell, FrameStatus, GridSpec, Lut, ReprojectError, Tap,
 };
 
 /// The stages of the fix, in run order.
@@ -396,6 +396,11 @@ fn build_and_apply_banded<C: StageClock>(
     let stride = inputs.params.width_px as usize;
     let [f0, f1, f2, f3] = inputs.frames;
     let frames = [Some(f0), Some(f1), Some(f2), Some(f3)];
+    // Classified once (sparse 32 x 32 probes per frame), not once per band; part of the
+    // `reproject` stage.
+    clock.begin(Stage::Reproject);
+    let status = frames.map(|f| f.as_ref().map_or(FrameStatus::Missing, classify_frame));
+    clock.end(Stage::Reproject);
     let mut stats = BuildStats::default();
     let mut report = ApplyReport {
         status: [FrameStatus::Missing; 4],
@@ -425,7 +430,7 @@ fn build_and_apply_banded<C: StageClock>(
         )?;
         clock.end(Stage::LutBuild);
         clock.begin(Stage::Reproject);
-        let a = lut.apply(&frames, band_top, band_mask)?;
+        let a = lut.apply_with_status(&frames, &status, band_top, band_mask)?;
         clock.end(Stage::Reproject);
         let s = lut.stats();
         stats.valid_cells += s.valid_cells;
@@ -434,7 +439,6 @@ fn build_and_apply_banded<C: StageClock>(
         for (t, v) in stats.cells_per_view.iter_mut().zip(s.cells_per_view) {
             *t += v;
         }
-        // Every band classifies the same frames the same way.
         report.status = a.status;
         report.valid_cells += a.valid_cells;
         report.lost_cells += a.lost_cells;

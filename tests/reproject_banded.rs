@@ -4,7 +4,8 @@
 use orbfix::camera::{CameraParams, RoverPose};
 use orbfix::image::ImageView;
 use orbfix::reproject::{
-    ApplyReport, Buffer, BuildStats, Cell, GridSpec, Lut, ReprojectError, Tap,
+    classify_frame, ApplyReport, Buffer, BuildStats, Cell, FrameStatus, GridSpec, Lut,
+    ReprojectError, Tap,
 };
 
 /// Deterministic textured frames (xorshift noise smoothed along rows so bilinear weights
@@ -70,6 +71,8 @@ fn banded(
     let mut mask = vec![7u8; n * n];
     let mut stats = BuildStats::default();
     let mut report: Option<ApplyReport> = None;
+    // Classified once for all bands (what the flight fix does).
+    let status = views.map(|f| f.as_ref().map_or(FrameStatus::Missing, classify_frame));
     let mut row = 0;
     while row < n {
         let end = (row + band_rows).min(n);
@@ -78,8 +81,9 @@ fn banded(
             Lut::build_rows(c, &mut extra, p, pose, g, p.width_px as usize, row..end).unwrap();
         assert_eq!(lut.rows(), (row, end));
         let a = lut
-            .apply(
+            .apply_with_status(
                 views,
+                &status,
                 &mut top[row * n..end * n],
                 &mut mask[row * n..end * n],
             )
@@ -121,6 +125,8 @@ fn bands_equal_the_whole_table_bit_for_bit() {
         .iter()
         .map(|d| ImageView::new(d, w, h).unwrap())
         .collect();
+    let dark = vec![0u8; w * h];
+    let black = ImageView::new(&dark, w, h).unwrap();
     let g = GridSpec::new(200, 0.25);
     let poses = [
         RoverPose::level(10.0, -4.0, 0.0, 0.0),
@@ -134,10 +140,12 @@ fn bands_equal_the_whole_table_bit_for_bit() {
         },
     ];
     for pose in &poses {
-        // All four frames (the run-length fast path) and one missing (fallback taps).
+        // All four frames (the run-length fast path), one missing and one black (fallback
+        // taps, lost cells).
         let sets = [
             [Some(all[0]), Some(all[1]), Some(all[2]), Some(all[3])],
             [Some(all[0]), None, Some(all[2]), Some(all[3])],
+            [Some(all[0]), Some(all[1]), Some(black), Some(all[3])],
         ];
         for views in &sets {
             let want = whole(&p, pose, &g, views);
@@ -176,4 +184,46 @@ fn bad_bands_are_typed_errors() {
         })
     );
     assert_eq!(build(&mut cells, 15..20), Ok((15, 20)));
+}
+
+#[test]
+fn given_status_leaves_views_out_and_still_checks_sizes() {
+    let p = CameraParams::default();
+    let (w, h) = (p.width_px as usize, p.height_px as usize);
+    let data = frames(w, h, 2);
+    let v: Vec<ImageView<'_>> = data
+        .iter()
+        .map(|d| ImageView::new(d, w, h).unwrap())
+        .collect();
+    let views = [Some(v[0]), Some(v[1]), Some(v[2]), Some(v[3])];
+    let pose = RoverPose::level(0.0, 0.0, 0.0, 0.0);
+    let g = GridSpec::new(40, 0.5);
+    let mut cells = vec![Cell::EMPTY; 40 * 40];
+    let mut extra = vec![Tap::EMPTY; 40 * 40];
+    let lut = Lut::build(&mut cells, &mut extra, &p, &pose, &g, w).unwrap();
+    let (mut top, mut mask) = (vec![0u8; 1600], vec![0u8; 1600]);
+    let ok = [FrameStatus::Ok; 4];
+    let all = lut
+        .apply_with_status(&views, &ok, &mut top, &mut mask)
+        .unwrap();
+    assert_eq!(all, lut.apply(&views, &mut top, &mut mask).unwrap());
+    // The front view marked missing: as if its frame were None.
+    let mut st = ok;
+    st[0] = FrameStatus::Missing;
+    let (mut t2, mut m2) = (vec![0u8; 1600], vec![0u8; 1600]);
+    let got = lut
+        .apply_with_status(&views, &st, &mut t2, &mut m2)
+        .unwrap();
+    let none = [None, Some(v[1]), Some(v[2]), Some(v[3])];
+    let want = lut.apply(&none, &mut top, &mut mask).unwrap();
+    assert_eq!(got, want);
+    assert!(got.lost_cells > 0);
+    assert!(t2 == top && m2 == mask);
+    // Wrong frame size is still an error, whatever the status says.
+    let small = ImageView::new(&data[0][..w * 10], w, 10).unwrap();
+    let bad = [Some(small), Some(v[1]), Some(v[2]), Some(v[3])];
+    assert!(matches!(
+        lut.apply_with_status(&bad, &ok, &mut t2, &mut m2),
+        Err(ReprojectError::FrameSize { view: 0, .. })
+    ));
 }

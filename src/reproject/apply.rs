@@ -136,6 +136,31 @@ impl Lut<'_> {
         out: &mut [u8],
         mask: &mut [u8],
     ) -> Result<ApplyReport, ReprojectError> {
+        self.apply_inner(frames, None, out, mask)
+    }
+
+    /// [`Lut::apply`] with the frames' states given (from [`classify_frame`], or
+    /// [`FrameStatus::Missing`] to leave a view out) instead of classified again: for
+    /// banded tables ([`Lut::build_rows`]), whose bands all sample the same frames. Views
+    /// whose status is not [`FrameStatus::Ok`] or whose frame is `None` are not sampled;
+    /// sizes and strides are checked as in [`Lut::apply`].
+    pub fn apply_with_status(
+        &self,
+        frames: &[Option<ImageView<'_>>; 4],
+        status: &[FrameStatus; 4],
+        out: &mut [u8],
+        mask: &mut [u8],
+    ) -> Result<ApplyReport, ReprojectError> {
+        self.apply_inner(frames, Some(status), out, mask)
+    }
+
+    fn apply_inner(
+        &self,
+        frames: &[Option<ImageView<'_>>; 4],
+        given: Option<&[FrameStatus; 4]>,
+        out: &mut [u8],
+        mask: &mut [u8],
+    ) -> Result<ApplyReport, ReprojectError> {
         let cells_n = self.cells.len();
         for (buffer, got) in [(Buffer::Output, out.len()), (Buffer::Mask, mask.len())] {
             if got != cells_n {
@@ -168,7 +193,10 @@ impl Lut<'_> {
                     got: f.stride(),
                 });
             }
-            *st = classify_frame(f);
+            *st = match given {
+                Some(g) => g.get(view).copied().unwrap_or(FrameStatus::Missing),
+                None => classify_frame(f),
+            };
             if *st == FrameStatus::Ok {
                 // ImageView guarantees len >= stride * (height - 1) + width, which with the
                 // table invariant keeps every tap inside the frame.

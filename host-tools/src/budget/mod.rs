@@ -675,9 +675,14 @@ impl Budget {
             kib(RAM_GOAL_BYTES)
         ));
         m.push_str(&format!(
-            "| external scratch (reprojection table, PSRAM) | {} | {}: does not fit the SRAM budget |\n",
+            "| external scratch (`.xscratch`, PSRAM) | {} | {}{} |\n",
             thousands(self.external_scratch_bytes),
-            kib(self.external_scratch_bytes)
+            kib(self.external_scratch_bytes),
+            if self.external_scratch_bytes == 0 {
+                ": none, all working memory is in SRAM"
+            } else {
+                ": working memory outside the SRAM budget"
+            }
         ));
         m.push_str(&format!(
             "| **all working memory** (SRAM + external scratch) | **{}** | **{}**: {} |\n",
@@ -698,9 +703,11 @@ impl Budget {
         m.push_str(
             "No heap: the firmware has no allocator. The link fails if static RAM does not fit \
              in memory.x's RAM region (budget minus the stack region). The reprojection table \
-             (8 bytes per grid cell plus overlap taps) is placed in external memory because it \
-             alone exceeds the SRAM budget; it is working memory all the same and is counted \
-             in the total.\n\n",
+             (8 bytes per grid cell plus overlap taps) is built and applied in bands of grid \
+             rows (`flight_run::LUT_BAND_ROWS`) inside the localizer's scratch, which the \
+             localizer only needs afterwards, so it adds nothing to static RAM. Anything placed \
+             in `.xscratch` (external memory) would be working memory all the same and is \
+             counted in the total.\n\n",
         );
         m.push_str("## No panics\n\n");
         if self.panic_free {
