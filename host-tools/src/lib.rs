@@ -7,6 +7,7 @@
 
 pub mod budget;
 pub mod dataset;
+pub mod depth;
 pub mod eval;
 pub mod fsutil;
 pub mod nn;

@@ -1,7 +1,8 @@
 //! Reprojection benchmark: in one run and for the same output grid, the core's integer LUT
 //! apply vs the f64 reference vs OpenCV's fixed-point `remap` (CV_16SC2 maps from
 //! `cv2.convertMaps`, one thread, run through `host-tools/benches/remap_cv.py`; the row says
-//! why if `cv2` is missing), plus the table's bytes and build time.
+//! why if `cv2` is missing), plus the table's bytes and build time, and the core's range
+//! reprojection (`reproject_range`) on the same frames with flat-ground depth images.
 //!
 //! Used by `orbfix bench reproject` and `cargo bench -p orbfix-host --bench reproject`.
 //! Frames are the flat-ground synthetic views of [`crate::reproject_ref`] (the speed of a
@@ -11,9 +12,12 @@ use crate::reproject_ref::{
     render_flat_ground, reproject_f64, ripple_texture, stacked_source_maps,
 };
 use anyhow::{Context, Result};
-use orbfix::camera::{CameraParams, RoverPose};
+use orbfix::camera::{Camera, CameraParams, RoverPose, View};
 use orbfix::image::ImageView;
-use orbfix::reproject::{table_len, Cell, GridSpec, Lut, Tap, DEFAULT_EXTRA};
+use orbfix::reproject::{
+    range_scratch_bytes, range_scratch_len, reproject_range, table_len, Cell, DepthView, GridSpec,
+    Lut, RangeOptions, Tap, DEFAULT_EXTRA,
+};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -279,5 +283,99 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         }
         Err(why) => println!("{:<36} {:>12}   ({why})", "OpenCV remap CV_16SC2", "n/a"),
     }
+    bench_range(&frames, &params, &pose, &grid, reps, apply_med)
+}
+
+/// Millimetre depth images of the flat ground `z = pose.ground_z_m` seen by the four views
+/// (0 above the horizon or beyond 65.535 m).
+pub fn flat_ground_depths(params: &CameraParams, pose: &RoverPose) -> Result<[Vec<u16>; 4]> {
+    let mut out: [Vec<u16>; 4] = Default::default();
+    for (o, view) in out.iter_mut().zip(View::ALL) {
+        let cam = Camera::new(params, pose, view)
+            .map_err(|e| anyhow::anyhow!("camera of {view:?}: {e:?}"))?;
+        let (w, h) = (params.width_px as usize, params.height_px as usize);
+        let rt = cam.world_to_cam.transpose();
+        *o = (0..w * h)
+            .map(|i| {
+                let xn = ((i % w) as f32 + 0.5 - cam.cx) / cam.focal_px;
+                let yn = ((i / w) as f32 + 0.5 - cam.cy) / cam.focal_px;
+                // Un-normalized ray (camera z = 1): depth = t where the ray meets the ground.
+                let d = rt * nalgebra::Vector3::new(xn, yn, 1.0);
+                if d.z >= -1e-6 {
+                    return 0;
+                }
+                let depth_mm = (params.height_m / -d.z * 1000.0).round();
+                if (1.0..=u16::MAX as f32).contains(&depth_mm) {
+                    depth_mm as u16
+                } else {
+                    0
+                }
+            })
+            .collect();
+    }
+    Ok(out)
+}
+
+/// Times the core's range reprojection on the same frames with flat-ground depths and
+/// prints pixels/s and the ratio to the LUT apply.
+fn bench_range(
+    frames: &[image::GrayImage; 4],
+    params: &CameraParams,
+    pose: &RoverPose,
+    grid: &GridSpec,
+    reps: usize,
+    lut_apply_s: f64,
+) -> Result<()> {
+    let depths = flat_ground_depths(params, pose)?;
+    let (w, h) = (params.width_px as usize, params.height_px as usize);
+    let mut views: [Option<ImageView<'_>>; 4] = [None; 4];
+    let mut dviews: [Option<DepthView<'_>>; 4] = [None; 4];
+    for ((v, dv), (f, d)) in views
+        .iter_mut()
+        .zip(dviews.iter_mut())
+        .zip(frames.iter().zip(&depths))
+    {
+        *v = Some(ImageView::new(f.as_raw(), w, h).map_err(|e| anyhow::anyhow!("{e:?}"))?);
+        *dv = Some(DepthView::new(d, w, h).map_err(|e| anyhow::anyhow!("{e:?}"))?);
+    }
+    let n_cells = grid.cells();
+    let mut scratch = vec![0u32; range_scratch_len(grid.n)];
+    let mut out = vec![0u8; n_cells];
+    let mut mask = vec![0u8; n_cells];
+    let opts = RangeOptions::default();
+    let mut report = None;
+    let (med, min) = time(reps.div_ceil(10).max(5), || {
+        let r = reproject_range(
+            black_box(&views),
+            &dviews,
+            params,
+            pose,
+            grid,
+            &opts,
+            &mut scratch,
+            &mut out,
+            &mut mask,
+        );
+        report = r.ok();
+    });
+    let r = report.context("range reprojection failed")?;
+    println!(
+        "range path: {} pixels read, {} placed, {} cells visited, {} valid ({} filled); scratch {} B",
+        r.pixels_read,
+        r.points_used,
+        r.cells_visited,
+        r.valid_cells,
+        r.filled_cells,
+        range_scratch_bytes(grid.n)
+    );
+    println!(
+        "{:<36} {:>12.1} {:>12.1} {:>12.1} {:>12}",
+        "orbfix range reproject (int, depth)",
+        med * 1e6,
+        min * 1e6,
+        r.pixels_read as f64 / med / 1e6,
+        format!("{:.2}x LUT", lut_apply_s / med)
+    );
+    println!("(range row: Mpx/s counts input pixels; the ratio is LUT apply time / range time)");
     Ok(())
 }

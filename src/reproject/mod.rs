@@ -1,5 +1,6 @@
 //! Integer lookup-table reprojection of the rover's four ground views into one north-up
-//! top-down image (flat-ground assumption).
+//! top-down image (flat-ground assumption), and the range-aware path ([`reproject_range`]:
+//! pixels with a depth image go to their true 3D points).
 //!
 //! Two steps, measured separately (`docs/reprojection.md`):
 //! 1. [`Lut::build`] (once per stop, because the heading changes): for every cell of an
@@ -28,10 +29,15 @@
 
 mod apply;
 mod lut;
+mod range;
 mod rings;
 
 pub use apply::{classify_frame, ApplyReport, FrameStatus, BLACK_LEVEL, SATURATED_LEVEL};
 pub use lut::{BuildStats, Lut};
+pub use range::{
+    range_scratch_bytes, range_scratch_len, reproject_range, DepthView, RangeAccumulator,
+    RangeError, RangeOptions, RangeReport, DEFAULT_DEPTH_SCALE_M, DEFAULT_FILL_MIN, POS_FRAC_BITS,
+};
 pub use rings::{equalize_rings, MAX_RINGS};
 
 use crate::camera::{CameraError, CameraParams, RoverPose};

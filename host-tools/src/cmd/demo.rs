@@ -31,9 +31,9 @@ pub struct Args {
     /// Matcher (default: the best available).
     #[arg(long)]
     pub matcher: Option<String>,
-    /// Top-down reprojection: range (host reference: pixels at their true 3D points) or lut
-    /// (the flight core's flat-ground table, which relief distorts beyond ~10 m; see
-    /// docs/results.md).
+    /// Top-down reprojection: range (the flight core's range path: pixels at their true 3D
+    /// points from millimetre depth images) or lut (the flight core's flat-ground table,
+    /// which relief distorts beyond ~10 m; see docs/results.md).
     #[arg(long, value_enum, default_value_t = Reprojection::Range)]
     pub reprojection: Reprojection,
     /// Lighting (same-sun is the study's setting).
@@ -80,7 +80,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         name,
         a.condition.name(),
         match a.reprojection {
-            Reprojection::Range => "range (host reference, true 3D points)",
+            Reprojection::Range => "the flight core's range path (depth images, true 3D points)",
             Reprojection::Lut => "the flight LUT (flat ground)",
         }
     );

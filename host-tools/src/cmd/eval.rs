@@ -3,6 +3,7 @@
 
 use anyhow::Context;
 use orbfix::localize::LocalizeConfig;
+use orbfix_host::depth::StereoNoise;
 use orbfix_host::eval::pipeline::{Condition, PipelineOptions, Reprojection};
 use orbfix_host::eval::run::{run_eval, EvalConfig, EvalOutput};
 use orbfix_host::eval::{
@@ -44,10 +45,15 @@ pub struct Args {
     /// Example localizations drawn into --figures.
     #[arg(long, default_value_t = 3)]
     pub examples: usize,
-    /// Top-down reprojection: lut (the flight core's flat-ground table) or range (host
-    /// reference placing pixels at their true 3D points, as a point cloud would).
-    #[arg(long, value_enum, default_value_t = Reprojection::Lut)]
+    /// Top-down reprojection: range (the flight core's range path: pixels placed at their
+    /// true 3D points from millimetre depth images, as stereo would give) or lut (the flight
+    /// core's flat-ground table).
+    #[arg(long, value_enum, default_value_t = Reprojection::Range)]
     pub reprojection: Reprojection,
+    /// Stereo depth noise of the range path: sigma = K * z^2 metres at depth z metres
+    /// (e.g. 0.001: 10 cm at 10 m); 0 = exact depths (millimetre quantized).
+    #[arg(long, default_value_t = 0.0)]
+    pub depth_noise_k: f64,
     /// Diagnostic: a world with zero relief and the same albedo.
     #[arg(long)]
     pub flat_world: bool,
@@ -57,6 +63,11 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        a.depth_noise_k.is_finite() && (0.0..=1.0).contains(&a.depth_noise_k),
+        "--depth-noise-k must be in 0..=1 (1/metres), got {}",
+        a.depth_noise_k
+    );
     let matchers = parse_matchers(&a.matcher)
         .with_context(|| format!("--matcher (available: {})", MATCHERS.join(", ")))?;
     let cfg = EvalConfig {
@@ -72,6 +83,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         stride_px: 50,
         pipeline: PipelineOptions {
             reprojection: a.reprojection,
+            depth_noise: (a.depth_noise_k > 0.0).then_some(StereoNoise {
+                k_per_m: a.depth_noise_k,
+                seed: a.seed,
+            }),
             ..PipelineOptions::default()
         },
         keep_examples: if a.figures.is_some() { a.examples } else { 0 },

@@ -30,7 +30,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.command
     )?;
     let mut first = true;
-    for rep in ["lut", "range"] {
+    for rep in ["lut", "range", "range-noise"] {
         for cond in ["same-sun", "cross-sun"] {
             let p = a.dir.join(format!("eval_{rep}_{cond}.json"));
             if !p.exists() {
@@ -56,7 +56,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             }
             let what = match rep {
                 "lut" => "flight LUT reprojection (flat ground)",
-                _ => "range reprojection (host reference: pixels at their true 3D points)",
+                "range" => "flight range reprojection (exact depth images, mm)",
+                _ => "flight range reprojection, stereo depth noise sigma = 0.001 z^2 m",
             };
             writeln!(md, "## {cond}, {what}\n")?;
             writeln!(md, "| matcher | R@1 | R@5 | R@10 | dense R@1 | dense R@5 | dense R@10 | median error m | p95 error m | within 1 m | within 5 m | pair AUC | pair error | border | conf. (ok / wrong) | dense ms | 441-window ms |")?;

@@ -3,6 +3,7 @@
 //! generated evaluation queries of the test zone.
 
 use super::{MapRegion, TopDown};
+use crate::depth::{depth_images, StereoNoise};
 use crate::render::{self, RenderOptions, Sun};
 use crate::world::{zones, World};
 use anyhow::Context;
@@ -16,10 +17,11 @@ use serde::Serialize;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Reprojection {
-    /// The flight core's integer LUT, flat-ground assumption (what the rover runs).
+    /// The flight core's integer LUT, flat-ground assumption (for rovers without depth).
     Lut,
-    /// Host-only reference: each pixel placed at its true 3D ground point (the renderer's
-    /// range image, i.e. what stereo or a point cloud would give), averaged per cell.
+    /// The flight core's integer range reprojection (`reproject_range`): each pixel placed
+    /// at its true 3D point from a depth image (the renderer's range image converted to
+    /// millimetre depths, i.e. what stereo or a point cloud would give), averaged per cell.
     Range,
 }
 
@@ -34,15 +36,18 @@ pub struct PipelineOptions {
     pub grid: GridSpec,
     /// Side of the orbital map region, pixels at `grid.m_per_px` (1200 = 300 m).
     pub map_px: usize,
+    /// Stereo depth noise of the range path (`None`: exact depths, millimetre quantized).
+    pub depth_noise: Option<StereoNoise>,
 }
 
 impl Default for PipelineOptions {
     fn default() -> Self {
         Self {
-            reprojection: Reprojection::Lut,
+            reprojection: Reprojection::Range,
             render: RenderOptions::default(),
             grid: GridSpec::default(),
             map_px: 1200,
+            depth_noise: None,
         }
     }
 }
@@ -66,13 +71,86 @@ pub fn observe(
         Reprojection::Range => {
             let set = render::render_views_with_range(world, &pose, sun, &opts.render)
                 .with_context(|| format!("rendering the views at ({x_m:.1}, {y_m:.1}) m"))?;
-            Ok(reproject_by_range(&set, &pose, &opts.grid))
+            // A noise stream per stop, from its position.
+            let noise = opts.depth_noise.map(|n| StereoNoise {
+                seed: n.seed ^ x_m.to_bits().rotate_left(17) ^ y_m.to_bits(),
+                ..n
+            });
+            reproject_views_range(&set, &opts.render, &pose, &opts.grid, noise)
         }
     }
 }
 
+/// Reprojects four views with depth (the renderer's range images as `u16` millimetre
+/// depths, optionally with stereo noise) through the core's integer range reprojection.
+pub fn reproject_views_range(
+    set: &render::ViewSet,
+    render_opts: &RenderOptions,
+    pose: &orbfix::camera::RoverPose,
+    grid: &GridSpec,
+    noise: Option<StereoNoise>,
+) -> anyhow::Result<TopDown> {
+    let depths = depth_images(set, noise)?;
+    reproject_depths(&set.views, &depths, render_opts, pose, grid).map(|(top, _)| top)
+}
+
+/// The core's range reprojection of four views and their `u16` millimetre depth images;
+/// also returns the core's report (frame status, pixel and cell counts).
+pub fn reproject_depths(
+    views: &[image::GrayImage; 4],
+    depths: &[Vec<u16>; 4],
+    render_opts: &RenderOptions,
+    pose: &orbfix::camera::RoverPose,
+    grid: &GridSpec,
+) -> anyhow::Result<(TopDown, reproject::RangeReport)> {
+    let params = render_opts.camera_params();
+    let mut frames: [Option<ImageView<'_>>; 4] = [None; 4];
+    let mut dviews: [Option<reproject::DepthView<'_>>; 4] = [None; 4];
+    for ((f, dv), (v, d)) in frames
+        .iter_mut()
+        .zip(dviews.iter_mut())
+        .zip(views.iter().zip(depths))
+    {
+        let (w, h) = (v.width() as usize, v.height() as usize);
+        *f = Some(
+            ImageView::new(v.as_raw(), w, h)
+                .map_err(|e| anyhow::anyhow!("bad view image: {e:?}"))?,
+        );
+        *dv = Some(
+            reproject::DepthView::new(d, w, h)
+                .map_err(|e| anyhow::anyhow!("bad depth image ({w} x {h} expected): {e:?}"))?,
+        );
+    }
+    let n = grid.n;
+    let mut scratch = vec![0u32; reproject::range_scratch_len(n)];
+    let mut out = vec![0u8; n * n];
+    let mut mask = vec![0u8; n * n];
+    let report = reproject::reproject_range(
+        &frames,
+        &dviews,
+        &params,
+        pose,
+        grid,
+        &reproject::RangeOptions::default(),
+        &mut scratch,
+        &mut out,
+        &mut mask,
+    )
+    .map_err(|e| anyhow::anyhow!("range reprojection failed: {e:?}"))?;
+    Ok((
+        TopDown {
+            image: out,
+            mask,
+            n,
+            m_per_px: grid.m_per_px,
+        },
+        report,
+    ))
+}
+
 /// Places every pixel with a range at its 3D point and averages gray levels per grid cell
-/// (host reference of a point-cloud reprojection; cells no pixel reaches are "no data").
+/// (host `f32`/`f64` reference of the core's [`reproject::reproject_range`], kept for tests;
+/// no hole filling; cells no pixel reaches are "no data").
 pub fn reproject_by_range(
     set: &render::ViewSet,
     pose: &orbfix::camera::RoverPose,

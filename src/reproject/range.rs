@@ -1,0 +1,691 @@
+//! Range-aware reprojection: forward projection of pixels with known depth (stereo, point
+//! cloud) onto the north-up top-down grid, integer-only per pixel.
+//!
+//! The flat-ground table ([`super::Lut`]) places a point `dz` below or above the rover's
+//! ground plane at range `d` at `d * h / (h + dz)`; on relief that smears the top-down image
+//! beyond a few metres. Here each pixel goes to its true 3D point instead:
+//!
+//! `P = C + z * (a_row + i * b)`, with `C` the optical centre, `z` the pixel's depth along
+//! the optical axis, `a_row = Z + Y (v - cy) / f + X (0.5 - cx) / f` (`X, Y, Z` the
+//! camera's right, down and forward axes in the world, `v = row + 0.5`) and `b = X / f`:
+//! the un-normalized ray is linear in the column `i` along a row.
+//!
+//! Per row (set-up, `f32`): `a_row` and `b` are scaled to grid cells (east, south) and
+//! metres (up) per depth unit and rounded to Q32 in `i32`. Per pixel (integer): three
+//! `i32` adds (the ray steps by `b`), three 32 x 32 -> 64 multiply-adds (`z * ray`: east,
+//! south, up; `SMLAL` on Cortex-M), two shifts (cell = floor, `>> 32`),
+//! compares, and one add into a packed per-cell accumulator (`u32`: sample count in bits
+//! 24..=31, saturating at 255, gray sum in bits 0..=23). Then per cell one division
+//! (`out = sum / count`, rounded) and an optional hole-filling pass (a cell with no sample
+//! and at least [`RangeOptions::fill_min_neighbours`] of its 8 neighbours sampled gets
+//! their mean), so sampling gaps at range do not punch holes while the blind disc under
+//! the mast and unseen areas stay "no data".
+//!
+//! Memory: the caller's scratch of [`range_scratch_len`] `u32` (4 bytes per cell, 160 KB
+//! for the default 200 x 200 grid) plus the output and mask (`n * n` bytes each). No heap,
+//! no panics, no floats per pixel.
+
+use super::{classify_frame, Buffer, FrameStatus, GridSpec, ReprojectError};
+use crate::camera::{Camera, CameraParams, RoverPose, View};
+use crate::image::{ImageError, ImageView};
+
+/// Default depth unit: millimetres (`u16` depths up to 65.535 m).
+pub const DEFAULT_DEPTH_SCALE_M: f32 = 0.001;
+/// Default minimum number of sampled 8-neighbours for filling an empty cell.
+pub const DEFAULT_FILL_MIN: u8 = 5;
+
+/// Fractional bits of the fixed-point positions (grid cells, Q32 in `i64`).
+pub const POS_FRAC_BITS: u32 = 32;
+const ONE_SAMPLE: u32 = 1 << 24;
+const SUM_MASK: u32 = ONE_SAMPLE - 1;
+/// Accumulator value at which a cell's count (255) is saturated.
+const SATURATED: u32 = 255 << 24;
+/// Largest magnitude of a Q32 ray component (per depth unit) along a row: `2^30`, so that
+/// rays fit `i32` with margin for the per-column steps and `z * ray` is one 32 x 32 -> 64
+/// multiply-accumulate (`SMLAL` on Cortex-M).
+const RAY_LIMIT: f32 = 1_073_741_824.0;
+
+/// `u32` elements of the scratch for an `n x n` grid (`n * n`; 0 on overflow).
+pub const fn range_scratch_len(n: usize) -> usize {
+    super::table_len(n)
+}
+
+/// Bytes of the scratch for an `n x n` grid (4 per cell).
+pub const fn range_scratch_bytes(n: usize) -> usize {
+    range_scratch_len(n) * core::mem::size_of::<u32>()
+}
+
+/// A borrowed depth image: `u16` depth along the optical axis per pixel, in units of
+/// [`RangeOptions::depth_scale_m`] (millimetres by default), 0 = no depth. Row-major;
+/// `stride` is in elements (`u16`), not bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct DepthView<'a> {
+    data: &'a [u16],
+    width: usize,
+    height: usize,
+    stride: usize,
+}
+
+impl<'a> DepthView<'a> {
+    /// A tightly packed depth image (`stride == width`).
+    pub fn new(data: &'a [u16], width: usize, height: usize) -> Result<Self, ImageError> {
+        Self::with_stride(data, width, height, width)
+    }
+
+    /// A depth image whose rows start `stride` elements apart. Errors as
+    /// [`ImageView::with_stride`] (sizes in elements).
+    pub fn with_stride(
+        data: &'a [u16],
+        width: usize,
+        height: usize,
+        stride: usize,
+    ) -> Result<Self, ImageError> {
+        if width == 0 || height == 0 {
+            return Err(ImageError::ZeroSize);
+        }
+        if stride < width {
+            return Err(ImageError::StrideTooSmall { stride, width });
+        }
+        let needed = stride
+            .checked_mul(height - 1)
+            .and_then(|n| n.checked_add(width))
+            .unwrap_or(usize::MAX);
+        if data.len() < needed {
+            return Err(ImageError::BufferTooSmall {
+                needed,
+                got: data.len(),
+            });
+        }
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+        })
+    }
+
+    /// Width, pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height, pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Elements between the starts of two rows.
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// Row `y` (exactly `width` depths), or `None` outside the image.
+    pub fn row(&self, y: usize) -> Option<&'a [u16]> {
+        if y >= self.height {
+            return None;
+        }
+        let start = y * self.stride;
+        self.data.get(start..start + self.width)
+    }
+}
+
+/// Settings of the range reprojection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RangeOptions {
+    /// Metres per depth unit (0.001: millimetres). Finite, > 0.
+    pub depth_scale_m: f32,
+    /// Depths beyond this, metres along the optical axis, are ignored (`f32::INFINITY`:
+    /// none).
+    pub max_depth_m: f32,
+    /// Points lower than this above the ground under the rover, metres, are ignored
+    /// (`f32::NEG_INFINITY`: none).
+    pub min_height_m: f32,
+    /// Points higher than this above the ground under the rover, metres, are ignored (e.g.
+    /// the camera height: nothing above the camera is ground; `f32::INFINITY`: none).
+    pub max_height_m: f32,
+    /// Empty cells with at least this many sampled 8-neighbours get their mean (0: no
+    /// filling; 1..=8).
+    pub fill_min_neighbours: u8,
+}
+
+impl Default for RangeOptions {
+    /// Millimetre depths, no depth or height limits, fill cells with >= 5 of 8 neighbours.
+    fn default() -> Self {
+        Self {
+            depth_scale_m: DEFAULT_DEPTH_SCALE_M,
+            max_depth_m: f32::INFINITY,
+            min_height_m: f32::NEG_INFINITY,
+            max_height_m: f32::INFINITY,
+            fill_min_neighbours: DEFAULT_FILL_MIN,
+        }
+    }
+}
+
+/// Errors of the range reprojection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RangeError {
+    /// Camera, pose, grid, output buffer or frame size error (as the LUT path).
+    Reproject(ReprojectError),
+    /// A depth image's size differs from its frame's.
+    DepthSize {
+        /// View index (0 front, 1 right, 2 rear, 3 left).
+        view: usize,
+        /// The frame's `(width, height)`, pixels.
+        expected: (usize, usize),
+        /// The depth image's `(width, height)`, pixels.
+        got: (usize, usize),
+    },
+    /// The scratch has the wrong length.
+    ScratchSize {
+        /// `u32` elements needed ([`range_scratch_len`]).
+        needed: usize,
+        /// Elements given.
+        got: usize,
+    },
+    /// `depth_scale_m` not finite and > 0, or `max_depth_m` NaN or <= 0.
+    BadDepthScale,
+    /// Height band NaN or empty, or `fill_min_neighbours` above 8.
+    BadOption,
+    /// Grid resolution too fine for the depth scale: a ray component exceeds `2^30` in
+    /// Q32 cells per depth unit, i.e. `m_per_px` below about `2 * |ray| * depth_scale_m`
+    /// (about 3 mm per cell with millimetre depths and the default rig).
+    Overflow,
+}
+
+impl From<ReprojectError> for RangeError {
+    fn from(e: ReprojectError) -> Self {
+        RangeError::Reproject(e)
+    }
+}
+
+/// What [`reproject_range`] did (also the operation counts for the flight budget).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RangeReport {
+    /// Per view (front, right, rear, left): sampled or why not (a view whose depth image
+    /// is missing keeps `Ok` here and is flagged in `depth_missing`).
+    pub status: [FrameStatus; 4],
+    /// Views with a usable frame but no depth image (not sampled).
+    pub depth_missing: [bool; 4],
+    /// Pixels read (frames sampled x their pixels): the per-pixel work.
+    pub pixels_read: u64,
+    /// Pixels that landed in a grid cell and were accumulated.
+    pub points_used: u64,
+    /// Pixels with no depth, beyond the depth or height limits, or outside the grid.
+    pub points_dropped: u64,
+    /// Cells visited by the per-cell passes (average and hole filling).
+    pub cells_visited: u64,
+    /// Cells with data (mask 255), filled cells included.
+    pub valid_cells: usize,
+    /// Cells filled from their neighbours.
+    pub filled_cells: usize,
+}
+
+/// Rounds a Q32 ray component to `i32` (rays are bounded by [`RAY_LIMIT`]).
+fn to_q(v: f32) -> Result<i32, RangeError> {
+    if !(v.is_finite() && libm::fabsf(v) < RAY_LIMIT) {
+        return Err(RangeError::Overflow);
+    }
+    Ok(libm::roundf(v) as i32)
+}
+
+fn validate_options(opts: &RangeOptions) -> Result<(), RangeError> {
+    if !(opts.depth_scale_m.is_finite() && opts.depth_scale_m > 0.0)
+        || opts.max_depth_m.is_nan()
+        || opts.max_depth_m <= 0.0
+    {
+        return Err(RangeError::BadDepthScale);
+    }
+    if opts.min_height_m.is_nan()
+        || opts.max_height_m.is_nan()
+        || opts.min_height_m > opts.max_height_m
+        || opts.fill_min_neighbours > 8
+    {
+        return Err(RangeError::BadOption);
+    }
+    Ok(())
+}
+
+/// Per-pixel limits of one view, in the fixed-point units of [`place_row`].
+struct Limits {
+    /// Largest depth, depth units (0 is always "no depth").
+    max_depth: u16,
+    /// Height band relative to the optical centre, metres Q32.
+    h_lo: i64,
+    h_hi: i64,
+    /// Optical centre from the grid's west / north edge, cells Q32 (`n / 2`).
+    c_q: i64,
+    /// Grid side, cells (at most 65535).
+    n: u32,
+    /// `(2R / res)^2` for the range test on cell centres.
+    range_lim: i64,
+}
+
+/// Places one row: pixel `i` has the ray `ray + i * step` (Q32 per depth unit: cells east,
+/// cells south, metres up). Returns the pixels accumulated. `HEIGHT` / `RANGE` switch the
+/// height-band and range tests on.
+#[inline(always)]
+fn place_row<const HEIGHT: bool, const RANGE: bool>(
+    frow: &[u8],
+    drow: &[u16],
+    ray: [i32; 3],
+    step: [i32; 3],
+    lim: &Limits,
+    scratch: &mut [u32],
+) -> u32 {
+    let [mut dx, mut dy, mut dz] = ray;
+    let [bx, by, bz] = step;
+    let (max_depth, n, c_q) = (lim.max_depth, lim.n, lim.c_q);
+    let mut used = 0u32;
+    for (&g, &z) in frow.iter().zip(drow) {
+        let (rx, ry, rz) = (dx, dy, dz);
+        dx = dx.wrapping_add(bx);
+        dy = dy.wrapping_add(by);
+        if HEIGHT {
+            dz = dz.wrapping_add(bz);
+        }
+        // One compare for "no depth" (0 wraps to 65535) and "too far".
+        if z.wrapping_sub(1) >= max_depth {
+            continue;
+        }
+        let zi = i64::from(z);
+        if HEIGHT {
+            let hz = zi * i64::from(rz);
+            if hz < lim.h_lo || hz > lim.h_hi {
+                continue;
+            }
+        }
+        // Positions are below 2^46 (rays < 2^30, depths < 2^16), so the cell index (the
+        // high word) fits i32; negative cells wrap to huge u32 and fail the bound.
+        let col = ((c_q + zi * i64::from(rx)) >> POS_FRAC_BITS) as i32 as u32;
+        let row = ((c_q + zi * i64::from(ry)) >> POS_FRAC_BITS) as i32 as u32;
+        if col >= n || row >= n {
+            continue;
+        }
+        if RANGE {
+            let ec = 2 * i64::from(col) + 1 - i64::from(n);
+            let er = 2 * i64::from(row) + 1 - i64::from(n);
+            if ec * ec + er * er > lim.range_lim {
+                continue;
+            }
+        }
+        if let Some(acc) = scratch.get_mut(row as usize * n as usize + col as usize) {
+            if *acc < SATURATED {
+                *acc += ONE_SAMPLE | u32::from(g);
+            }
+            used += 1;
+        }
+    }
+    used
+}
+
+/// Incremental range reprojection for callers that produce one view (or one depth image)
+/// at a time: [`RangeAccumulator::new`] clears the scratch, [`RangeAccumulator::add_view`]
+/// places one view's pixels, [`RangeAccumulator::finish`] averages, fills holes and writes
+/// the top-down image. [`reproject_range`] does all three for four views.
+#[derive(Debug)]
+pub struct RangeAccumulator<'s> {
+    scratch: &'s mut [u32],
+    params: CameraParams,
+    pose: RoverPose,
+    grid: GridSpec,
+    opts: RangeOptions,
+    report: RangeReport,
+}
+
+impl<'s> RangeAccumulator<'s> {
+    /// Checks the parameters and clears `scratch` ([`range_scratch_len`]`(grid.n)`
+    /// elements).
+    pub fn new(
+        params: &CameraParams,
+        pose: &RoverPose,
+        grid: &GridSpec,
+        opts: &RangeOptions,
+        scratch: &'s mut [u32],
+    ) -> Result<Self, RangeError> {
+        grid.validate()?;
+        params.validate().map_err(ReprojectError::from)?;
+        pose.validate().map_err(ReprojectError::from)?;
+        validate_options(opts)?;
+        let cells = grid.cells();
+        if scratch.len() != cells {
+            return Err(RangeError::ScratchSize {
+                needed: cells,
+                got: scratch.len(),
+            });
+        }
+        scratch.fill(0);
+        Ok(Self {
+            scratch,
+            params: *params,
+            pose: *pose,
+            grid: *grid,
+            opts: *opts,
+            report: RangeReport {
+                status: [FrameStatus::Missing; 4],
+                depth_missing: [false; 4],
+                pixels_read: 0,
+                points_used: 0,
+                points_dropped: 0,
+                cells_visited: 0,
+                valid_cells: 0,
+                filled_cells: 0,
+            },
+        })
+    }
+
+    /// Checks that `frame` and `depth` have the rig's size (errors as [`reproject_range`]).
+    fn check_sizes(
+        &self,
+        view: View,
+        frame: &ImageView<'_>,
+        depth: Option<&DepthView<'_>>,
+    ) -> Result<(), RangeError> {
+        let (w, h) = (
+            self.params.width_px as usize,
+            self.params.height_px as usize,
+        );
+        if (frame.width(), frame.height()) != (w, h) {
+            return Err(ReprojectError::FrameSize {
+                view: view.index(),
+                expected: (w, h),
+                got: (frame.width(), frame.height()),
+            }
+            .into());
+        }
+        if let Some(d) = depth {
+            if (d.width(), d.height()) != (w, h) {
+                return Err(RangeError::DepthSize {
+                    view: view.index(),
+                    expected: (w, h),
+                    got: (d.width(), d.height()),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Places the pixels of `view`'s `frame` at the points given by `depth` (same size as
+    /// the frame, `params.width_px x params.height_px`). Returns the frame's status: a
+    /// black or saturated frame, or a missing depth image, adds nothing (recorded in the
+    /// report). Adding a view twice accumulates it twice.
+    pub fn add_view(
+        &mut self,
+        view: View,
+        frame: &ImageView<'_>,
+        depth: Option<&DepthView<'_>>,
+    ) -> Result<FrameStatus, RangeError> {
+        self.check_sizes(view, frame, depth)?;
+        let vi = view.index();
+        let st = classify_frame(frame);
+        if let Some(s) = self.report.status.get_mut(vi) {
+            *s = st;
+        }
+        if st != FrameStatus::Ok {
+            return Ok(st);
+        }
+        let Some(d) = depth else {
+            if let Some(m) = self.report.depth_missing.get_mut(vi) {
+                *m = true;
+            }
+            return Ok(st);
+        };
+        let (params, grid, opts) = (&self.params, &self.grid, &self.opts);
+        let (w, h) = (params.width_px as usize, params.height_px as usize);
+        let n = grid.n;
+        // Limits in the fixed-point units.
+        let max_depth_units = {
+            let q = opts.max_depth_m / opts.depth_scale_m;
+            if q >= u16::MAX as f32 {
+                u16::MAX
+            } else {
+                libm::floorf(q) as u16
+            }
+        };
+        let one = (1u64 << POS_FRAC_BITS) as f32;
+        let scale_z = opts.depth_scale_m * one;
+        let scale_xy = scale_z / grid.m_per_px;
+        // Heights relative to the optical centre, metres Q32 (saturating casts keep
+        // infinities).
+        let h_lo = ((opts.min_height_m - params.height_m) * one) as i64;
+        let h_hi = ((opts.max_height_m - params.height_m) * one) as i64;
+        // Ground range limit on cell centres: (2c + 1 - n)^2 + (2r + 1 - n)^2 <= (2 R/res)^2.
+        let range_lim: Option<i64> = if grid.max_range_m.is_finite() {
+            let r = 2.0 * grid.max_range_m / grid.m_per_px;
+            if r * r < 4.0e18 {
+                Some((r * r) as i64)
+            } else {
+                None
+            }
+        } else {
+            None
+        };
+        // The optical centre is straight above the rover: n / 2 cells from the west and
+        // north edges.
+        let height_band = h_lo > i64::MIN || h_hi < i64::MAX;
+        let lim = Limits {
+            max_depth: max_depth_units,
+            h_lo,
+            h_hi,
+            c_q: (n as i64) << (POS_FRAC_BITS - 1),
+            n: n as u32,
+            range_lim: range_lim.unwrap_or(i64::MAX),
+        };
+
+        let cam = Camera::new(params, &self.pose, view).map_err(ReprojectError::from)?;
+        let r = cam.world_to_cam;
+        // Camera right, down, forward axes in the world.
+        let ax_r = [r[(0, 0)], r[(0, 1)], r[(0, 2)]];
+        let ax_d = [r[(1, 0)], r[(1, 1)], r[(1, 2)]];
+        let ax_f = [r[(2, 0)], r[(2, 1)], r[(2, 2)]];
+        let f = cam.focal_px;
+        let u0 = (0.5 - cam.cx) / f;
+        // Steps per column, Q32 per depth unit: east (cells), south (cells), up (metres).
+        let bx = ax_r[0] / f * scale_xy;
+        let by = -ax_r[1] / f * scale_xy;
+        let bz = ax_r[2] / f * scale_z;
+        let (bx_q, by_q, bz_q) = (to_q(bx)?, to_q(by)?, to_q(bz)?);
+        let scratch = &mut *self.scratch;
+        let (mut used_all, mut read_all) = (0u64, 0u64);
+        for j in 0..h {
+            let (Some(frow), Some(drow)) = (frame.row(j), d.row(j)) else {
+                break;
+            };
+            let vv = (j as f32 + 0.5 - cam.cy) / f;
+            let a = [
+                ax_f[0] + ax_d[0] * vv + ax_r[0] * u0,
+                ax_f[1] + ax_d[1] * vv + ax_r[1] * u0,
+                ax_f[2] + ax_d[2] * vv + ax_r[2] * u0,
+            ];
+            let ax = a[0] * scale_xy;
+            let ay = -a[1] * scale_xy;
+            let az = a[2] * scale_z;
+            // The ray at both ends of the row must stay inside RAY_LIMIT (so i32 steps
+            // cannot overflow: the rounding drift over a row is below `w` units).
+            let end = w as f32;
+            for (a0, b0) in [(ax, bx), (ay, by), (az, bz)] {
+                if libm::fabsf(a0) + libm::fabsf(b0) * end >= RAY_LIMIT {
+                    return Err(RangeError::Overflow);
+                }
+            }
+            let ray = [to_q(ax)?, to_q(ay)?, to_q(az)?];
+            let step = [bx_q, by_q, bz_q];
+            read_all += w as u64;
+            // Monomorphized per limit set so the default (no height band, no range limit)
+            // loop keeps its state in registers.
+            let used = match (height_band, range_lim) {
+                (false, None) => place_row::<false, false>(frow, drow, ray, step, &lim, scratch),
+                (true, None) => place_row::<true, false>(frow, drow, ray, step, &lim, scratch),
+                (false, Some(_)) => place_row::<false, true>(frow, drow, ray, step, &lim, scratch),
+                (true, Some(_)) => place_row::<true, true>(frow, drow, ray, step, &lim, scratch),
+            };
+            used_all += u64::from(used);
+        }
+        self.report.pixels_read += read_all;
+        self.report.points_used += used_all;
+        self.report.points_dropped += read_all - used_all;
+        Ok(st)
+    }
+
+    /// Averages the samples per cell into `out` (`n * n` gray levels, north-up, 0 where no
+    /// data) and `mask` (`n * n`; 255 valid, 0 no data), fills holes, and returns the
+    /// report of the whole reprojection.
+    pub fn finish(self, out: &mut [u8], mask: &mut [u8]) -> Result<RangeReport, RangeError> {
+        let n = self.grid.n;
+        let cells = self.grid.cells();
+        for (buffer, got) in [(Buffer::Output, out.len()), (Buffer::Mask, mask.len())] {
+            if got != cells {
+                return Err(ReprojectError::BufferSize {
+                    buffer,
+                    needed: cells,
+                    got,
+                }
+                .into());
+            }
+        }
+        let scratch = &*self.scratch;
+        let mut report = self.report;
+        // Per cell: mean of the samples.
+        let mut valid = 0usize;
+        for ((&acc, o), m) in scratch.iter().zip(out.iter_mut()).zip(mask.iter_mut()) {
+            let cnt = acc >> 24;
+            match ((acc & SUM_MASK) + cnt / 2).checked_div(cnt) {
+                Some(v) => {
+                    *o = v.min(255) as u8;
+                    *m = 255;
+                    valid += 1;
+                }
+                None => {
+                    *o = 0;
+                    *m = 0;
+                }
+            }
+        }
+        report.cells_visited += cells as u64;
+        // Hole filling: validity from the accumulator (unchanged), values from sampled
+        // cells.
+        let mut filled = 0usize;
+        if self.opts.fill_min_neighbours > 0 {
+            let need = u32::from(self.opts.fill_min_neighbours);
+            for r in 0..n {
+                for c in 0..n {
+                    let k = r * n + c;
+                    if scratch.get(k).is_none_or(|&a| a >> 24 != 0) {
+                        continue;
+                    }
+                    let (mut nv, mut sum) = (0u32, 0u32);
+                    for rr in r.saturating_sub(1)..(r + 2).min(n) {
+                        for cc in c.saturating_sub(1)..(c + 2).min(n) {
+                            let kk = rr * n + cc;
+                            if kk == k {
+                                continue;
+                            }
+                            if let (Some(&a), Some(&v)) = (scratch.get(kk), out.get(kk)) {
+                                if a >> 24 != 0 {
+                                    nv += 1;
+                                    sum += u32::from(v);
+                                }
+                            }
+                        }
+                    }
+                    if nv >= need {
+                        if let (Some(o), Some(m)) = (out.get_mut(k), mask.get_mut(k)) {
+                            *o = ((sum + nv / 2) / nv).min(255) as u8;
+                            *m = 255;
+                            filled += 1;
+                        }
+                    }
+                }
+            }
+            report.cells_visited += cells as u64;
+        }
+        report.valid_cells = valid + filled;
+        report.filled_cells = filled;
+        Ok(report)
+    }
+}
+
+/// Reprojects `frames` (front, right, rear, left; `None` for a missing camera) with their
+/// `depths` (same order and sizes) into `out` (`n * n` gray levels, north-up, 0 where no
+/// data) and `mask` (`n * n`; 255 valid, 0 no data), using `scratch`
+/// ([`range_scratch_len`]`(grid.n)` elements, overwritten). Frames must be
+/// `params.width_px x params.height_px` (any stride); black or saturated frames
+/// ([`classify_frame`]) are treated as missing and reported. `grid.max_range_m` limits the
+/// ground distance of a cell centre from the rover. Every size is checked before any
+/// pixel is read.
+#[allow(clippy::too_many_arguments)]
+pub fn reproject_range(
+    frames: &[Option<ImageView<'_>>; 4],
+    depths: &[Option<DepthView<'_>>; 4],
+    params: &CameraParams,
+    pose: &RoverPose,
+    grid: &GridSpec,
+    opts: &RangeOptions,
+    scratch: &mut [u32],
+    out: &mut [u8],
+    mask: &mut [u8],
+) -> Result<RangeReport, RangeError> {
+    let mut acc = RangeAccumulator::new(params, pose, grid, opts, scratch)?;
+    let cells = grid.cells();
+    for (buffer, got) in [(Buffer::Output, out.len()), (Buffer::Mask, mask.len())] {
+        if got != cells {
+            return Err(ReprojectError::BufferSize {
+                buffer,
+                needed: cells,
+                got,
+            }
+            .into());
+        }
+    }
+    for ((f, d), view) in frames.iter().zip(depths).zip(View::ALL) {
+        if let Some(f) = f {
+            acc.check_sizes(view, f, d.as_ref())?;
+        }
+    }
+    for ((f, d), view) in frames.iter().zip(depths).zip(View::ALL) {
+        if let Some(f) = f {
+            acc.add_view(view, f, d.as_ref())?;
+        }
+    }
+    acc.finish(out, mask)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn accumulator_saturates_and_averages() {
+        let mut acc = 0u32;
+        for _ in 0..300 {
+            if acc < SATURATED {
+                acc += ONE_SAMPLE | 255;
+            }
+        }
+        assert_eq!(acc >> 24, 255);
+        assert_eq!((acc & SUM_MASK) / (acc >> 24), 255);
+    }
+
+    #[test]
+    fn depth_view_checks_sizes() {
+        let d = [0u16; 10];
+        assert!(DepthView::new(&d, 5, 2).is_ok());
+        assert_eq!(
+            DepthView::new(&d, 5, 3).err(),
+            Some(ImageError::BufferTooSmall {
+                needed: 15,
+                got: 10
+            })
+        );
+        assert_eq!(
+            DepthView::with_stride(&d, 5, 2, 4).err(),
+            Some(ImageError::StrideTooSmall {
+                stride: 4,
+                width: 5
+            })
+        );
+        assert_eq!(DepthView::new(&d, 0, 2).err(), Some(ImageError::ZeroSize));
+    }
+}
