@@ -25,7 +25,7 @@ pub struct Args {
     pub queries: usize,
     /// Matcher, or a comma-separated list sharing the renders (ncc, ncc-hp2, ncc-dist, l1, l2,
     /// cnn = shipped int8 CNN, cnn-f32 = float checkpoint at $ORBFIX_CNN_F32 or
-    /// runs/matcher/checkpoint.safetensors; the CNNs localize by 441-window search + dense
+    /// runs/matcher-real/checkpoint.safetensors; the CNNs localize by 441-window search + dense
     /// refinement of the 3 best windows at 2 m + sub-step peak).
     #[arg(long, default_value = "ncc")]
     pub matcher: String,

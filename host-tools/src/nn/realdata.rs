@@ -11,7 +11,10 @@
 //! (either side), else the map's sun; with probability `missing_view_p` one view missing
 //! (its 90 deg sector of the top-down image masked out). Satellite: one 100 m x 100 m crop
 //! (400 px at 0.25 m/px) under the map sun, cut into the positive (the 50 m window centred
-//! on the truth) and a hard negative (centred 12.5-25 m away in a random direction).
+//! within 6 m of the truth, uniform over that disc: the study's window grid leaves the truth
+//! up to 8.8 m from the nearest window's centre, so the embedding must tolerate such offsets)
+//! and a hard negative (centred 12.5-25 m from the truth in a random direction: the
+//! neighbouring windows).
 //!
 //! The set is cached under `dir` as one 12,288-byte file per location (rover, positive, hard
 //! negative inputs, `i8` each 4096), written atomically, so building is resumable: existing
@@ -35,6 +38,8 @@ const CROP_PX: usize = 400;
 const WIN_PX: usize = 200;
 /// Metres per pixel of both sides.
 const M_PER_PX: f64 = 0.25;
+/// Largest offset of the positive window's centre from the truth, metres.
+pub const POS_JITTER_M: f64 = 6.0;
 /// Bytes of one cached location.
 pub const RECORD_LEN: usize = 3 * INPUT_LEN;
 
@@ -117,6 +122,8 @@ pub fn real_triplet(
             .then(|| rng.random_range(0..4usize));
         let dist = rng.random_range(12.5..25.0);
         let ang: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+        let jit = POS_JITTER_M * rng.random_range(0.0f64..1.0).sqrt();
+        let jang: f64 = rng.random_range(0.0..std::f64::consts::TAU);
 
         let pose = render::ground_pose(world, x, y, heading);
         let set = render::render_views_cached(world, &pose, view_sun, opts, Some(cache))
@@ -139,8 +146,8 @@ pub fn real_triplet(
         .with_context(|| format!("rendering the satellite crop at ({x:.1}, {y:.1}) m"))?;
         let sat = sat.into_raw();
         let c = (CROP_PX - WIN_PX) / 2;
-        let pos = crop(&sat, CROP_PX, c, c);
         let off = |v: f64| (c as f64 + v / M_PER_PX).round() as usize;
+        let pos = crop(&sat, CROP_PX, off(jit * jang.sin()), off(-jit * jang.cos()));
         // East is +column, north is -row.
         let neg = crop(&sat, CROP_PX, off(dist * ang.sin()), off(-dist * ang.cos()));
         let mut t = Triplet {
