@@ -78,7 +78,7 @@ fn window_first_ncc_finds_an_off_grid_position() {
     };
     let mut spec = matcher_by_name("ncc").unwrap();
     spec.window_first = true;
-    let loc = localize_windows(&spec, &top, &map, 50).unwrap();
+    let loc = localize_windows(&spec, &top, &map, (1050.0, 1950.0), 50).unwrap();
     let (tx, ty) = geo.to_world((c0 + n / 2) as f32, (r0 + n / 2) as f32);
     let err = ((loc.fix.x_m - tx).powi(2) + (loc.fix.y_m - ty).powi(2)).sqrt();
     assert!(err < 0.5, "fix off by {err} m");

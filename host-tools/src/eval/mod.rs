@@ -320,7 +320,7 @@ pub fn localize_top_down(
         );
     }
     if spec.window_first {
-        return window_refine::localize_windows(spec, top, map, stride_px);
+        return window_refine::localize_windows(spec, top, map, prior, stride_px);
     }
     let p = prepare(spec, top, map)?;
     let t = ImageView::new(&p.top, top.n, top.n)

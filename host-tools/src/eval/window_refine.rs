@@ -16,11 +16,15 @@
 //! `s2` the best window score more than one stride (12.5 m) from the fix, `mean` the mean
 //! window score; clamped to `[0, 1]` (the core's definition, on the window response).
 //! `on_border`: the fine peak lies on an edge of its search grid that the map edge cut.
+//!
+//! A top-down image the CNN cannot embed (fewer than 1/8 of its 64 x 64 input cells valid,
+//! or no contrast) gives **no fix**: the result is reported at the prior with confidence 0
+//! and `on_border` set (counted as a declared failure), its window scores all -1.
 
 use super::{Localization, MapRegion, MatcherSpec, TopDown};
 use orbfix::image::ImageView;
 use orbfix::localize::{Candidate, Fix};
-use orbfix::matcher::{Grid, OpCounts};
+use orbfix::matcher::{Grid, MatchError, OpCounts};
 use std::time::Instant;
 
 /// Windows refined by the dense search.
@@ -116,6 +120,7 @@ pub fn localize_windows(
     spec: &MatcherSpec,
     top: &TopDown,
     map: &MapRegion,
+    prior: (f64, f64),
     stride_px: usize,
 ) -> anyhow::Result<Localization> {
     let p = super::prepare(spec, top, map)?;
@@ -137,9 +142,38 @@ pub fn localize_windows(
     let mut window_scores = vec![0f32; grid.len()];
     let mut window_ops = OpCounts::default();
     let t0 = Instant::now();
-    spec.matcher
+    match spec
+        .matcher
         .dense(&t, &w, &m, stride_px, &mut window_scores, &mut window_ops)
-        .map_err(|e| anyhow::anyhow!("window search failed: {e:?}"))?;
+    {
+        Ok(_) => {}
+        Err(MatchError::NoValidPixels | MatchError::FeaturelessTemplate) => {
+            window_scores.fill(-1.0);
+            let fix = Fix {
+                x_m: prior.0 as f32,
+                y_m: prior.1 as f32,
+                score: -1.0,
+                confidence: 0.0,
+                peak_score: -1.0,
+                second_score: -1.0,
+                on_border: true,
+                candidates: Default::default(),
+                coarse_grid: grid,
+                ops_coarse: window_ops,
+                ops_fine: OpCounts::default(),
+            };
+            return Ok(Localization {
+                fix,
+                coarse_response: window_scores.clone(),
+                window_scores,
+                window_grid: grid,
+                window_ops,
+                dense_s: 0.0,
+                windows_s: t0.elapsed().as_secs_f64(),
+            });
+        }
+        Err(e) => anyhow::bail!("window search failed: {e:?}"),
+    }
     let windows_s = t0.elapsed().as_secs_f64();
 
     // Best windows, suppressing neighbours within one stride.
