@@ -165,6 +165,41 @@ fn relief_world_range_beats_lut_against_satellite() {
         };
         let depths = depth_images(&set, Some(noise)).unwrap();
         let (range, _) = reproject_depths(&set.views, &depths, &r, &pose, &grid).unwrap();
+        // Reading every s-th column near the mast (s <= 16) keeps the image close.
+        let params = r.camera_params();
+        let mut frames = [None; 4];
+        let mut dv = [None; 4];
+        for k in 0..4 {
+            frames[k] = Some(ImageView::new(set.views[k].as_raw(), 320, 180).unwrap());
+            dv[k] = Some(DepthView::new(&depths[k], 320, 180).unwrap());
+        }
+        let mut scratch = vec![0u32; range_scratch_len(grid.n)];
+        let (mut out, mut mask) = (vec![0u8; grid.cells()], vec![0u8; grid.cells()]);
+        let strided = RangeOptions {
+            max_column_stride: 16,
+            ..RangeOptions::default()
+        };
+        let rs = reproject_range(
+            &frames,
+            &dv,
+            &params,
+            &pose,
+            &grid,
+            &strided,
+            &mut scratch,
+            &mut out,
+            &mut mask,
+        )
+        .unwrap();
+        let n_strided = masked_ncc(&out, &sat.image, &mask);
+        eprintln!(
+            "query {}: strided: {} of {} pixels read, NCC vs satellite {n_strided:.3}",
+            q.id,
+            rs.pixels_read,
+            4 * 320 * 180
+        );
+        assert!(rs.pixels_read < 4 * 320 * 180 * 7 / 10);
+        assert!(n_strided > 0.5, "strided NCC {n_strided}");
         let n_lut = masked_ncc(&lut.image, &sat.image, &lut.mask);
         let n_range = masked_ncc(&range.image, &sat.image, &range.mask);
         eprintln!(

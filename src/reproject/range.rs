@@ -147,6 +147,13 @@ pub struct RangeOptions {
     /// Empty cells with at least this many sampled 8-neighbours get their mean (0: no
     /// filling; 1..=8).
     pub fill_min_neighbours: u8,
+    /// Largest column stride (1..=16; 1 = read every pixel, the default). With `k > 1` each
+    /// row reads every `s`-th pixel, `s = clamp(floor(m_per_px f / (2 t)), 1, k)` with `t`
+    /// the row's flat-ground depth at its centre column (metres) and `f` the focal length
+    /// (pixels): the ground spacing of the pixels read stays at most half a cell on flat
+    /// ground. Near the mast a cell gets hundreds of pixels, so this saves most of the
+    /// per-pixel work for a small change of the image.
+    pub max_column_stride: u8,
 }
 
 impl Default for RangeOptions {
@@ -158,6 +165,7 @@ impl Default for RangeOptions {
             min_height_m: f32::NEG_INFINITY,
             max_height_m: f32::INFINITY,
             fill_min_neighbours: DEFAULT_FILL_MIN,
+            max_column_stride: 1,
         }
     }
 }
@@ -186,7 +194,8 @@ pub enum RangeError {
     },
     /// `depth_scale_m` not finite and > 0, or `max_depth_m` NaN or <= 0.
     BadDepthScale,
-    /// Height band NaN or empty, or `fill_min_neighbours` above 8.
+    /// Height band NaN or empty, `fill_min_neighbours` above 8, or `max_column_stride` not in
+    /// 1..=16.
     BadOption,
     /// Grid resolution too fine for the depth scale: a ray component exceeds `2^30` in
     /// Q32 cells per depth unit, i.e. `m_per_px` below about `2 * |ray| * depth_scale_m`
@@ -242,6 +251,7 @@ fn validate_options(opts: &RangeOptions) -> Result<(), RangeError> {
         || opts.max_height_m.is_nan()
         || opts.min_height_m > opts.max_height_m
         || opts.fill_min_neighbours > 8
+        || !(1..=16).contains(&opts.max_column_stride)
     {
         return Err(RangeError::BadOption);
     }
@@ -263,23 +273,47 @@ struct Limits {
     range_lim: i64,
 }
 
-/// Places one row: pixel `i` has the ray `ray + i * step` (Q32 per depth unit: cells east,
-/// cells south, metres up). Returns the pixels accumulated. `HEIGHT` / `RANGE` switch the
+/// Places one row, every `stride`-th pixel from the first: the `k`-th pixel read has the
+/// ray `ray + k * step` (`step` is already `stride` columns; Q32 per depth unit: cells
+/// east, cells south, metres up). Returns the pixels accumulated. `HEIGHT` / `RANGE` switch the
 /// height-band and range tests on.
 #[inline(always)]
 fn place_row<const HEIGHT: bool, const RANGE: bool>(
     frow: &[u8],
     drow: &[u16],
+    stride: usize,
     ray: [i32; 3],
     step: [i32; 3],
     lim: &Limits,
     scratch: &mut [u32],
 ) -> u32 {
+    // Every pixel: a plain zip (a runtime `step_by` slows the common loop down).
+    if stride <= 1 {
+        let it = frow.iter().zip(drow);
+        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, scratch)
+    } else {
+        let it = frow.iter().zip(drow).step_by(stride);
+        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, scratch)
+    }
+}
+
+/// The per-pixel loop of [`place_row`] over the pixels read.
+#[inline(always)]
+fn place_pixels<'p, const HEIGHT: bool, const RANGE: bool, I>(
+    pixels: I,
+    ray: [i32; 3],
+    step: [i32; 3],
+    lim: &Limits,
+    scratch: &mut [u32],
+) -> u32
+where
+    I: Iterator<Item = (&'p u8, &'p u16)>,
+{
     let [mut dx, mut dy, mut dz] = ray;
     let [bx, by, bz] = step;
     let (max_depth, n, c_q) = (lim.max_depth, lim.n, lim.c_q);
     let mut used = 0u32;
-    for (&g, &z) in frow.iter().zip(drow) {
+    for (&g, &z) in pixels {
         let (rx, ry, rz) = (dx, dy, dz);
         dx = dx.wrapping_add(bx);
         dy = dy.wrapping_add(by);
@@ -511,15 +545,41 @@ impl<'s> RangeAccumulator<'s> {
                 }
             }
             let ray = [to_q(ax)?, to_q(ay)?, to_q(az)?];
-            let step = [bx_q, by_q, bz_q];
-            read_all += w as u64;
+            // Column stride from the row's flat-ground depth at its centre column.
+            let mut stride = 1usize;
+            if opts.max_column_stride > 1 {
+                let up_mid = a[2] + ax_r[2] * (0.5 * w as f32 - 0.5) / f;
+                if up_mid < 0.0 {
+                    let t = params.height_m / -up_mid;
+                    let s = libm::floorf(grid.m_per_px * f / (2.0 * t));
+                    if s >= 2.0 {
+                        stride = (s as usize).min(usize::from(opts.max_column_stride));
+                    }
+                }
+            }
+            stride = stride.min(w.max(1));
+            let k = stride as i32;
+            let step = [
+                bx_q.wrapping_mul(k),
+                by_q.wrapping_mul(k),
+                bz_q.wrapping_mul(k),
+            ];
+            read_all += w.div_ceil(stride) as u64;
             // Monomorphized per limit set so the default (no height band, no range limit)
             // loop keeps its state in registers.
             let used = match (height_band, range_lim) {
-                (false, None) => place_row::<false, false>(frow, drow, ray, step, &lim, scratch),
-                (true, None) => place_row::<true, false>(frow, drow, ray, step, &lim, scratch),
-                (false, Some(_)) => place_row::<false, true>(frow, drow, ray, step, &lim, scratch),
-                (true, Some(_)) => place_row::<true, true>(frow, drow, ray, step, &lim, scratch),
+                (false, None) => {
+                    place_row::<false, false>(frow, drow, stride, ray, step, &lim, scratch)
+                }
+                (true, None) => {
+                    place_row::<true, false>(frow, drow, stride, ray, step, &lim, scratch)
+                }
+                (false, Some(_)) => {
+                    place_row::<false, true>(frow, drow, stride, ray, step, &lim, scratch)
+                }
+                (true, Some(_)) => {
+                    place_row::<true, true>(frow, drow, stride, ray, step, &lim, scratch)
+                }
             };
             used_all += u64::from(used);
         }

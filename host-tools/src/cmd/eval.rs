@@ -57,6 +57,10 @@ pub struct Args {
     /// (e.g. 0.001: 10 cm at 10 m); 0 = exact depths (millimetre quantized).
     #[arg(long, default_value_t = 0.0)]
     pub depth_noise_k: f64,
+    /// Range path: largest column stride (1 = every pixel; up to 16: rows near the mast
+    /// read every s-th pixel, at most half a cell apart on flat ground).
+    #[arg(long, default_value_t = 1)]
+    pub column_stride: u8,
     /// Diagnostic: a world with zero relief and the same albedo.
     #[arg(long)]
     pub flat_world: bool,
@@ -70,6 +74,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.depth_noise_k.is_finite() && (0.0..=1.0).contains(&a.depth_noise_k),
         "--depth-noise-k must be in 0..=1 (1/metres), got {}",
         a.depth_noise_k
+    );
+    anyhow::ensure!(
+        (1..=16).contains(&a.column_stride),
+        "--column-stride must be in 1..=16, got {}",
+        a.column_stride
     );
     let matchers = parse_matchers(&a.matcher)
         .with_context(|| format!("--matcher (available: {})", MATCHERS.join(", ")))?;
@@ -90,6 +99,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 k_per_m: a.depth_noise_k,
                 seed: a.seed,
             }),
+            range: orbfix::reproject::RangeOptions {
+                max_column_stride: a.column_stride,
+                ..Default::default()
+            },
             ..PipelineOptions::default()
         },
         keep_examples: if a.figures.is_some() { a.examples } else { 0 },

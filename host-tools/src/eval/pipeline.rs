@@ -38,6 +38,8 @@ pub struct PipelineOptions {
     pub map_px: usize,
     /// Stereo depth noise of the range path (`None`: exact depths, millimetre quantized).
     pub depth_noise: Option<StereoNoise>,
+    /// Settings of the core's range reprojection (column stride, limits, hole filling).
+    pub range: reproject::RangeOptions,
 }
 
 impl Default for PipelineOptions {
@@ -48,6 +50,7 @@ impl Default for PipelineOptions {
             grid: GridSpec::default(),
             map_px: 1200,
             depth_noise: None,
+            range: reproject::RangeOptions::default(),
         }
     }
 }
@@ -76,7 +79,7 @@ pub fn observe(
                 seed: n.seed ^ x_m.to_bits().rotate_left(17) ^ y_m.to_bits(),
                 ..n
             });
-            reproject_views_range(&set, &opts.render, &pose, &opts.grid, noise)
+            reproject_views_range(&set, &opts.render, &pose, &opts.grid, &opts.range, noise)
         }
     }
 }
@@ -88,20 +91,35 @@ pub fn reproject_views_range(
     render_opts: &RenderOptions,
     pose: &orbfix::camera::RoverPose,
     grid: &GridSpec,
+    range: &reproject::RangeOptions,
     noise: Option<StereoNoise>,
 ) -> anyhow::Result<TopDown> {
     let depths = depth_images(set, noise)?;
-    reproject_depths(&set.views, &depths, render_opts, pose, grid).map(|(top, _)| top)
+    reproject_depths_with(&set.views, &depths, render_opts, pose, grid, range).map(|(top, _)| top)
 }
 
-/// The core's range reprojection of four views and their `u16` millimetre depth images;
-/// also returns the core's report (frame status, pixel and cell counts).
+/// The core's range reprojection (default [`reproject::RangeOptions`]) of four views and
+/// their `u16` millimetre depth images; also returns the core's report (frame status, pixel
+/// and cell counts).
 pub fn reproject_depths(
     views: &[image::GrayImage; 4],
     depths: &[Vec<u16>; 4],
     render_opts: &RenderOptions,
     pose: &orbfix::camera::RoverPose,
     grid: &GridSpec,
+) -> anyhow::Result<(TopDown, reproject::RangeReport)> {
+    let range = reproject::RangeOptions::default();
+    reproject_depths_with(views, depths, render_opts, pose, grid, &range)
+}
+
+/// As [`reproject_depths`] with explicit range options.
+pub fn reproject_depths_with(
+    views: &[image::GrayImage; 4],
+    depths: &[Vec<u16>; 4],
+    render_opts: &RenderOptions,
+    pose: &orbfix::camera::RoverPose,
+    grid: &GridSpec,
+    range: &reproject::RangeOptions,
 ) -> anyhow::Result<(TopDown, reproject::RangeReport)> {
     let params = render_opts.camera_params();
     let mut frames: [Option<ImageView<'_>>; 4] = [None; 4];
@@ -131,7 +149,7 @@ pub fn reproject_depths(
         &params,
         pose,
         grid,
-        &reproject::RangeOptions::default(),
+        range,
         &mut scratch,
         &mut out,
         &mut mask,
