@@ -129,7 +129,14 @@ pub fn real_triplet(
         let set = render::render_views_cached(world, &pose, view_sun, opts, Some(cache))
             .with_context(|| format!("rendering the views at ({x:.1}, {y:.1}) m"))?;
         let grid = orbfix::reproject::GridSpec::default();
-        let mut top = reproject_views_range(&set, opts, &pose, &grid, None)?;
+        let mut top = reproject_views_range(
+            &set,
+            opts,
+            &pose,
+            &grid,
+            &orbfix::reproject::RangeOptions::default(),
+            None,
+        )?;
         if let Some(k) = missing {
             mask_view(&mut top.mask, top.n, heading, k);
         }
