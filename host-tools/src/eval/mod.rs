@@ -24,7 +24,9 @@ use std::time::Instant;
 
 /// Names of the matchers reported, best first for `demo` (`ncc-hp2`: masked NCC after a
 /// 2 m masked high-pass; see `matcher_by_name` for the option grammar). The CNN matchers
-/// (`cnn`, `cnn-f32`) plug in here behind the same [`Matcher`] trait.
+/// (`cnn`: shipped int8; `cnn-f32`: float checkpoint) plug in here behind the same
+/// [`Matcher`] trait and localize window-first ([`window_refine`]); `demo` keeps `ncc-hp2`
+/// because it is better same-sun on the range top-down (docs/matcher.md).
 pub const MATCHERS: &[&str] = &["ncc-hp2", "ncc", "ncc-dist", "l1", "l2"];
 
 /// The matcher `demo` uses: the best one available.
