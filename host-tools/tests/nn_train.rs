@@ -73,6 +73,9 @@ fn cfg(steps: u64) -> TrainConfig {
         missing_view_p: 0.2,
         val_size: 4,
         checkpoint_every: 1,
+        real_train: None,
+        real_val: None,
+        init: None,
     }
 }
 

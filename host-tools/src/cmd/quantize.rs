@@ -34,6 +34,10 @@ pub struct Args {
     /// Seed of the test locations (never used in training: those come from the test zone).
     #[arg(long, default_value_t = 1000)]
     pub eval_seed: u64,
+    /// Calibrate on a cached real validation set (`orbfix train --real-train`'s
+    /// `runs/realdata/val`: real rover top-downs and map windows) instead of proxy pairs.
+    #[arg(long)]
+    pub calibration_real: Option<PathBuf>,
     /// Write the metrics as JSON here.
     #[arg(long)]
     pub report: Option<PathBuf>,
@@ -56,13 +60,28 @@ pub fn run(a: Args) -> Result<()> {
     let net = FloatNet::load(&a.checkpoint)?;
     let world = World::new(a.world_seed);
     anyhow::ensure!(a.calibration >= 2, "--calibration must be at least 2");
-    let calib: Vec<_> = (0..a.calibration as u64 / 2)
-        .into_par_iter()
-        .flat_map_iter(|i| {
-            let t = triplet(&world, &VAL_ZONE, 0xCA11_B4A7, i, 0.5, 0.15);
-            [t.rover, t.positive]
-        })
-        .collect();
+    let calib: Vec<_> = match &a.calibration_real {
+        Some(dir) => {
+            let set = orbfix_host::nn::realdata::load(dir)?;
+            anyhow::ensure!(
+                !set.is_empty(),
+                "the real calibration set {} is empty",
+                dir.display()
+            );
+            set.iter()
+                .take(a.calibration / 2)
+                .flat_map(|t| [t.rover, t.positive])
+                .collect()
+        }
+        None => (0..a.calibration as u64 / 2)
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let t = triplet(&world, &VAL_ZONE, 0xCA11_B4A7, i, 0.5, 0.15);
+                [t.rover, t.positive]
+            })
+            .collect(),
+    };
+    println!("calibration: {} inputs", calib.len());
     let ranges = calibrate(&net, &calib)?;
     let q = quantize(&net, &ranges)?;
     let bytes = q.to_bytes();

@@ -41,6 +41,23 @@ pub struct Args {
     /// Steps between validations and checkpoints.
     #[arg(long, default_value_t = 50)]
     pub checkpoint_every: u64,
+    /// Train on REAL pairs: build (resumably) this many training-zone locations through the
+    /// real pipeline (rendered views + core range reprojection vs the map renderer's
+    /// satellite windows) under --real-dir, then draw batches from them (0 = proxy pairs).
+    #[arg(long, default_value_t = 0)]
+    pub real_train: usize,
+    /// Validation-zone locations of the real set (used with --real-train).
+    #[arg(long, default_value_t = 64)]
+    pub real_val: usize,
+    /// Cache of the real set (train/ and val/ subfolders, one file per location).
+    #[arg(long, default_value = "runs/realdata")]
+    pub real_dir: PathBuf,
+    /// Only build the real set, do not train.
+    #[arg(long)]
+    pub build_only: bool,
+    /// Start from this float checkpoint (fine-tuning) instead of a fresh initialization.
+    #[arg(long)]
+    pub init: Option<PathBuf>,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -52,6 +69,31 @@ pub fn run(a: Args) -> Result<()> {
         a.lr.is_finite() && a.lr > 0.0 && a.temperature.is_finite() && a.temperature > 0.0,
         "--lr and --temperature must be positive numbers"
     );
+    let (mut real_train, mut real_val) = (None, None);
+    if a.real_train > 0 {
+        use orbfix_host::nn::data::{TRAIN_ZONE, VAL_ZONE};
+        use orbfix_host::nn::realdata::{build, RealSpec};
+        let spec = |zone, seed| RealSpec {
+            world_seed: a.world_seed,
+            zone,
+            seed,
+            cross_sun_p: a.cross_sun_p,
+            missing_view_p: a.missing_view_p,
+        };
+        let (td, vd) = (a.real_dir.join("train"), a.real_dir.join("val"));
+        let t0 = std::time::Instant::now();
+        let n = build(&td, &spec(TRAIN_ZONE, a.seed ^ 0x7EA1), a.real_train, true)?;
+        let m = build(&vd, &spec(VAL_ZONE, a.seed ^ 0x7A1D), a.real_val, true)?;
+        eprintln!(
+            "real set: rendered {n} training and {m} validation locations in {:.0} s",
+            t0.elapsed().as_secs_f64()
+        );
+        real_train = Some(td);
+        real_val = Some(vd);
+    }
+    if a.build_only {
+        return Ok(());
+    }
     let cfg = TrainConfig {
         world_seed: a.world_seed,
         seed: a.seed,
@@ -63,6 +105,9 @@ pub fn run(a: Args) -> Result<()> {
         missing_view_p: a.missing_view_p,
         val_size: a.val_size,
         checkpoint_every: a.checkpoint_every,
+        real_train,
+        real_val,
+        init: a.init,
     };
     let state = train(&a.out, &cfg)?;
     if let Some(p) = state.history.last() {

@@ -12,6 +12,7 @@ pub mod metrics;
 pub mod overlay;
 pub mod pipeline;
 pub mod run;
+pub mod window_refine;
 
 use anyhow::{bail, Context};
 use orbfix::geo::GeoRef;
@@ -23,7 +24,9 @@ use std::time::Instant;
 
 /// Names of the matchers reported, best first for `demo` (`ncc-hp2`: masked NCC after a
 /// 2 m masked high-pass; see `matcher_by_name` for the option grammar). The CNN matchers
-/// (`cnn`, `cnn-f32`) plug in here behind the same [`Matcher`] trait.
+/// (`cnn`: shipped int8; `cnn-f32`: float checkpoint) plug in here behind the same
+/// [`Matcher`] trait and localize window-first ([`window_refine`]); `demo` keeps `ncc-hp2`
+/// because it is better same-sun on the range top-down (docs/matcher.md).
 pub const MATCHERS: &[&str] = &["ncc-hp2", "ncc", "ncc-dist", "l1", "l2"];
 
 /// The matcher `demo` uses: the best one available.
@@ -47,7 +50,14 @@ pub struct MatcherSpec {
     /// Equalize the top-down image's brightness per 1 m range ring first (the reprojection's
     /// `equalize_rings`).
     pub equalize_rings: bool,
+    /// Localize by window search + dense refinement of the best windows
+    /// ([`window_refine::localize_windows`]) instead of the core's coarse-to-fine path (the
+    /// CNNs, which need the full-resolution template).
+    pub window_first: bool,
 }
+
+/// Float checkpoint of `cnn-f32`: `$ORBFIX_CNN_F32` or this default.
+pub const DEFAULT_F32_CHECKPOINT: &str = "runs/matcher-real/checkpoint.safetensors";
 
 /// Looks a matcher up by name: a base (`l1`, `l2`, `ncc`) followed by options, each
 /// `-dist` (1 / distance weights, full weight within 5 m), `-eq` (top-down brightness
@@ -55,9 +65,25 @@ pub struct MatcherSpec {
 /// metres), `-rN` (use the top-down image within N metres of the rover only); e.g.
 /// `ncc-hp4-r20`. [`MATCHERS`] lists the ones reported.
 pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
-    let mut parts = name.split('-');
-    let base = parts.next().unwrap_or("");
+    let (base, rest) = match name.strip_prefix("cnn-f32") {
+        Some(rest) => ("cnn-f32", rest),
+        None => {
+            let b = name.split('-').next().unwrap_or("");
+            (b, &name[b.len()..])
+        }
+    };
+    let parts = rest.split('-').filter(|p| !p.is_empty());
     let matcher: Box<dyn Matcher + Send + Sync> = match base {
+        "cnn-f32" => {
+            let path = std::env::var("ORBFIX_CNN_F32")
+                .unwrap_or_else(|_| DEFAULT_F32_CHECKPOINT.to_string());
+            Box::new(
+                crate::nn::float_matcher::FloatCnnMatcher::load(std::path::Path::new(&path))
+                    .with_context(|| {
+                        format!("matcher cnn-f32 needs a float checkpoint at {path} (set ORBFIX_CNN_F32 or run `orbfix train`)")
+                    })?,
+            )
+        }
         "l1" => Box::new(L1),
         "l2" => Box::new(L2),
         "ncc" => Box::new(Ncc::default()),
@@ -67,7 +93,7 @@ pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
             )
         })?),
         _ => bail!(
-            "unknown matcher '{name}': choose one of {}, cnn (options: -dist, -eq, -hpN, -rN)",
+            "unknown matcher '{name}': choose one of {}, cnn, cnn-f32 (options: -dist, -eq, -hpN, -rN)",
             MATCHERS.join(", ")
         ),
     };
@@ -78,6 +104,7 @@ pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
         highpass_m: None,
         max_range_m: None,
         equalize_rings: false,
+        window_first: base.starts_with("cnn"),
     };
     for p in parts {
         let num = |pre: &str| -> anyhow::Result<f32> {
@@ -293,6 +320,9 @@ pub fn localize_top_down(
             top.n,
             top.n
         );
+    }
+    if spec.window_first {
+        return window_refine::localize_windows(spec, top, map, prior, stride_px);
     }
     let p = prepare(spec, top, map)?;
     let t = ImageView::new(&p.top, top.n, top.n)

@@ -157,10 +157,14 @@ fn score_at(
         .sub(col, row, top.n, top.n)
         .ok_or_else(|| anyhow::anyhow!("pair window ({col}, {row}) outside the map"))?;
     let mut ops = OpCounts::default();
-    Ok(spec
-        .matcher
-        .score(&t, &w, &win, &mut ops)
-        .map_err(|e| anyhow::anyhow!("pair score: {e:?}"))? as f64)
+    match spec.matcher.score(&t, &w, &win, &mut ops) {
+        Ok(s) => Ok(s as f64),
+        // A top-down image the matcher cannot use (e.g. too few valid cells for the CNN's
+        // input) scores both pairs at the floor: a tie.
+        Err(orbfix::matcher::MatchError::NoValidPixels)
+        | Err(orbfix::matcher::MatchError::FeaturelessTemplate) => Ok(-1.0),
+        Err(e) => Err(anyhow::anyhow!("pair score: {e:?}")),
+    }
 }
 
 /// Runs one query for every matcher.

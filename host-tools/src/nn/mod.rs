@@ -4,8 +4,10 @@
 
 pub mod data;
 pub mod eval;
+pub mod float_matcher;
 pub mod float_model;
 pub mod qmodel;
 pub mod quantize;
+pub mod realdata;
 pub mod reference;
 pub mod train;

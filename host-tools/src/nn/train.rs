@@ -18,6 +18,8 @@ use candle_core::{Device, Tensor, D};
 use candle_nn::{AdamW, Optimizer, ParamsAdamW};
 use indicatif::{ProgressBar, ProgressStyle};
 use orbfix::nn::input::INPUT_LEN;
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -46,6 +48,16 @@ pub struct TrainConfig {
     pub val_size: usize,
     /// Steps between validations and checkpoints.
     pub checkpoint_every: u64,
+    /// Cached real training set (`realdata`): when set, batches are drawn from it instead
+    /// of the proxy generator.
+    #[serde(default)]
+    pub real_train: Option<PathBuf>,
+    /// Cached real validation set (used with `real_train`).
+    #[serde(default)]
+    pub real_val: Option<PathBuf>,
+    /// Float checkpoint to start from (fine-tuning) instead of a fresh initialization.
+    #[serde(default)]
+    pub init: Option<PathBuf>,
 }
 
 /// One logged point.
@@ -115,6 +127,19 @@ fn batch(
         .collect()
 }
 
+/// Batch `step` drawn from a cached real set: `n` distinct locations (deterministic for
+/// `(seed, step)`).
+fn real_batch(set: &[Triplet], seed: u64, step: u64, n: usize) -> Vec<Triplet> {
+    let mut rng = StdRng::seed_from_u64(seed ^ step.wrapping_mul(0x2545_F491_4F6C_DD1D));
+    let mut idx: Vec<usize> = (0..set.len()).collect();
+    let n = n.min(set.len());
+    for i in 0..n {
+        let j = rng.random_range(i..idx.len());
+        idx.swap(i, j);
+    }
+    idx[..n].iter().map(|&i| set[i].clone()).collect()
+}
+
 /// Symmetric InfoNCE loss and rover -> satellite top-1 accuracy of a batch.
 pub fn loss(net: &FloatNet, b: &[Triplet], temperature: f64) -> Result<(Tensor, f64)> {
     let n = b.len();
@@ -175,6 +200,16 @@ pub fn train(dir: &Path, cfg: &TrainConfig) -> Result<TrainState> {
                 ..s
             },
         )
+    } else if let Some(init) = &cfg.init {
+        eprintln!("fine-tuning from {}", init.display());
+        (
+            FloatNet::load(init)?,
+            TrainState {
+                config: cfg.clone(),
+                step: 0,
+                history: Vec::new(),
+            },
+        )
     } else {
         (
             FloatNet::init(cfg.seed)?,
@@ -191,14 +226,45 @@ pub fn train(dir: &Path, cfg: &TrainConfig) -> Result<TrainState> {
         ..Default::default()
     };
     let mut opt = AdamW::new(net.vars(), params)?;
-    let val = batch(
-        &world,
-        cfg.seed ^ 0x005E_ED0F_7A11,
-        0,
-        cfg.val_size,
-        cfg,
-        true,
-    );
+    let real = match &cfg.real_train {
+        Some(d) => {
+            let set = super::realdata::load(d)?;
+            ensure!(
+                set.len() >= cfg.batch,
+                "the real set {} holds {} usable locations, fewer than --batch {}",
+                d.display(),
+                set.len(),
+                cfg.batch
+            );
+            eprintln!(
+                "real training set: {} locations from {}",
+                set.len(),
+                d.display()
+            );
+            Some(set)
+        }
+        None => None,
+    };
+    let val = match (&real, &cfg.real_val) {
+        (Some(_), Some(d)) => {
+            let mut v = super::realdata::load(d)?;
+            v.truncate(cfg.val_size);
+            ensure!(
+                v.len() >= 2,
+                "the real validation set {} is empty",
+                d.display()
+            );
+            v
+        }
+        _ => batch(
+            &world,
+            cfg.seed ^ 0x005E_ED0F_7A11,
+            0,
+            cfg.val_size,
+            cfg,
+            true,
+        ),
+    };
     let pb = ProgressBar::new(cfg.steps);
     pb.set_style(
         ProgressStyle::with_template(
@@ -215,14 +281,17 @@ pub fn train(dir: &Path, cfg: &TrainConfig) -> Result<TrainState> {
         opt.set_learning_rate(
             cfg.lr * (0.05 + 0.95 * 0.5 * (1.0 + (std::f64::consts::PI * t).cos())),
         );
-        let b = batch(
-            &world,
-            cfg.seed,
-            state.step * cfg.batch as u64,
-            cfg.batch,
-            cfg,
-            false,
-        );
+        let b = match &real {
+            Some(set) => real_batch(set, cfg.seed, state.step, cfg.batch),
+            None => batch(
+                &world,
+                cfg.seed,
+                state.step * cfg.batch as u64,
+                cfg.batch,
+                cfg,
+                false,
+            ),
+        };
         let (l, _) = loss(&net, &b, cfg.temperature)?;
         opt.backward_step(&l)?;
         let lv = l.to_scalar::<f32>()? as f64;
