@@ -1,6 +1,6 @@
 //! L1 baseline (the study's): minus the weighted mean absolute grey-level difference.
 
-use super::{check_inputs, MatchError, Matcher, OpCounts};
+use super::{weighted_distance, MatchError, Matcher, OpCounts};
 use crate::image::ImageView;
 
 /// L1 distance matcher. Score = `-sum(w |t - m|) / sum(w)`, grey levels (0 = identical,
@@ -20,27 +20,7 @@ impl Matcher for L1 {
         window: &ImageView<'_>,
         ops: &mut OpCounts,
     ) -> Result<f32, MatchError> {
-        check_inputs(template, weight, window)?;
-        let mut total = 0u64;
-        let mut acc = 0u64;
-        for y in 0..template.height() {
-            let (Some(t), Some(w), Some(m)) = (template.row(y), weight.row(y), window.row(y))
-            else {
-                return Err(MatchError::WindowTooSmall);
-            };
-            let mut row = 0u32;
-            for ((&t, &w), &m) in t.iter().zip(w).zip(m) {
-                row += w as u32 * t.abs_diff(m) as u32;
-            }
-            total += w.iter().map(|&v| v as u64).sum::<u64>();
-            acc += row as u64;
-        }
-        ops.macs += (template.width() * template.height()) as u64;
-        ops.windows += 1;
-        if total == 0 {
-            return Err(MatchError::NoValidPixels);
-        }
-        Ok(-(acc as f32 / total as f32))
+        weighted_distance(template, weight, window, ops, |d| d)
     }
 }
 

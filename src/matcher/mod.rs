@@ -164,6 +164,36 @@ pub trait Matcher {
     }
 }
 
+/// Minus the weighted mean of `cost(|t - m|)` over the template (holes, `w = 0`, ignored):
+/// the shared body of the L1 and L2 baselines. Integer sums (u64), one float division.
+#[inline(always)]
+pub(crate) fn weighted_distance(
+    template: &ImageView<'_>,
+    weight: &ImageView<'_>,
+    window: &ImageView<'_>,
+    ops: &mut OpCounts,
+    cost: impl Fn(u32) -> u32,
+) -> Result<f32, MatchError> {
+    check_inputs(template, weight, window)?;
+    let mut total = 0u64;
+    let mut acc = 0u64;
+    for y in 0..template.height() {
+        let (Some(t), Some(w), Some(m)) = (template.row(y), weight.row(y), window.row(y)) else {
+            return Err(MatchError::WindowTooSmall);
+        };
+        for ((&t, &w), &m) in t.iter().zip(w).zip(m) {
+            acc += (w as u32 * cost(t.abs_diff(m) as u32)) as u64;
+            total += w as u64;
+        }
+    }
+    ops.macs += (template.width() * template.height()) as u64;
+    ops.windows += 1;
+    if total == 0 {
+        return Err(MatchError::NoValidPixels);
+    }
+    Ok(-(acc as f32 / total as f32))
+}
+
 /// Checks template, mask and window sizes.
 pub(crate) fn check_inputs(
     template: &ImageView<'_>,
