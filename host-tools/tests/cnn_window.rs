@@ -1,11 +1,11 @@
-//! Window-first localization (the CNN path of `orbfix eval`): window search, dense
-//! refinement of the best windows and the sub-step peak find an off-grid position; the float
-//! CNN matcher's dense response equals its per-window scores.
+//! Window-first localization (the CNN path of `orbfix eval`): dense response, window
+//! ranking, refinement of the best peaks and the sub-step peak find an off-grid position; the
+//! float CNN matcher's dense response equals its per-window scores.
 
 use orbfix::image::ImageView;
 use orbfix::matcher::{Matcher, OpCounts};
 use orbfix_host::eval::window_refine::localize_windows;
-use orbfix_host::eval::{matcher_by_name, MapRegion, TopDown};
+use orbfix_host::eval::{matcher_by_name, window_cell_scores, MapRegion, TopDown};
 use orbfix_host::nn::float_matcher::FloatCnnMatcher;
 use orbfix_host::nn::float_model::FloatNet;
 use rand::rngs::StdRng;
@@ -44,7 +44,7 @@ fn texture(w: usize, h: usize, seed: u64) -> Vec<u8> {
 #[test]
 fn window_first_ncc_finds_an_off_grid_position() {
     // 400 x 400 px map at 0.25 m/px (100 m), template 200 px cut at (77, 131): neither on
-    // the 50 px window grid nor on the 8 px refinement grid.
+    // the 50 px window grid, nor on the 16 px dense grid, nor on the 4 px refinement grid.
     let (mw, n) = (400usize, 200usize);
     let map_img = texture(mw, mw, 5);
     let geo = orbfix::geo::GeoRef::new(1000.0, 2000.0, 0.25).unwrap();
@@ -91,6 +91,15 @@ fn window_first_ncc_finds_an_off_grid_position() {
         .max_by(|&a, &b| loc.window_scores[a].total_cmp(&loc.window_scores[b]))
         .unwrap();
     assert_eq!(best, 3 * 5 + 2);
+    // Ranked by the best response in their cell (dense grid and refinement samples), the
+    // truth's cell wins too: (77, 131) lies in the cell of window (col 2, row 3).
+    assert_eq!(loc.fix.coarse_grid.step, 16);
+    assert!(!loc.fine_samples.is_empty());
+    let cells = window_cell_scores(&loc);
+    let best_cell = (0..25)
+        .max_by(|&a, &b| cells[a].total_cmp(&cells[b]))
+        .unwrap();
+    assert_eq!(best_cell, 3 * 5 + 2);
 }
 
 #[test]

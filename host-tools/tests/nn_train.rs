@@ -76,6 +76,7 @@ fn cfg(steps: u64) -> TrainConfig {
         real_train: None,
         real_val: None,
         init: None,
+        sampling: Default::default(),
     }
 }
 

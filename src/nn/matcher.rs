@@ -94,16 +94,13 @@ impl Matcher for CnnMatcher<'_> {
         window: &ImageView<'_>,
         ops: &mut OpCounts,
     ) -> Result<f32, MatchError> {
-        let (w, h) = (template.width(), template.height());
-        if weight.width() != w || weight.height() != h {
-            return Err(MatchError::MaskSizeMismatch);
-        }
-        let window = window.sub(0, 0, w, h).ok_or(MatchError::WindowTooSmall)?;
-        let mut arena = Arena::new();
-        let mut t = [0i8; EMBED_LEN];
-        self.embed(template, Some(weight), &mut arena, &mut t, ops)
-            .map_err(to_match_error)?;
-        self.window_score(&t, &window, &mut arena, ops)
+        // One window: the dense response over a region the template's size.
+        let window = window
+            .sub(0, 0, template.width(), template.height())
+            .ok_or(MatchError::WindowTooSmall)?;
+        let mut out = [0f32; 1];
+        self.dense(template, weight, &window, 1, &mut out, ops)?;
+        Ok(out[0])
     }
 
     fn dense(

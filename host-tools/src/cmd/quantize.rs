@@ -62,7 +62,8 @@ pub fn run(a: Args) -> Result<()> {
     anyhow::ensure!(a.calibration >= 2, "--calibration must be at least 2");
     let calib: Vec<_> = match &a.calibration_real {
         Some(dir) => {
-            let set = orbfix_host::nn::realdata::load(dir)?;
+            use orbfix_host::nn::realdata::{fixed_triplets, load, Sampling};
+            let set = fixed_triplets(&load(dir)?, &Sampling::default(), 0xCA11);
             anyhow::ensure!(
                 !set.is_empty(),
                 "the real calibration set {} is empty",

@@ -58,6 +58,15 @@ pub struct Args {
     /// Start from this float checkpoint (fine-tuning) instead of a fresh initialization.
     #[arg(long)]
     pub init: Option<PathBuf>,
+    /// Real set: largest offset of the positive window's centre from the truth, metres.
+    #[arg(long, default_value_t = 2.5)]
+    pub pos_radius_m: f64,
+    /// Real set: smallest offset of the hard negative window's centre, metres.
+    #[arg(long, default_value_t = 5.0)]
+    pub neg_min_m: f64,
+    /// Real set: largest offset of the hard negative window's centre, metres (<= 25).
+    #[arg(long, default_value_t = 25.0)]
+    pub neg_max_m: f64,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -108,6 +117,11 @@ pub fn run(a: Args) -> Result<()> {
         real_train,
         real_val,
         init: a.init,
+        sampling: orbfix_host::nn::realdata::Sampling {
+            pos_radius_m: a.pos_radius_m,
+            neg_min_m: a.neg_min_m,
+            neg_max_m: a.neg_max_m,
+        },
     };
     let state = train(&a.out, &cfg)?;
     if let Some(p) = state.history.last() {

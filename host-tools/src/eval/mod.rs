@@ -199,6 +199,11 @@ pub struct Localization {
     pub dense_s: f64,
     /// Wall time of the window search, seconds.
     pub windows_s: f64,
+    /// Further positions the same matcher scored at full resolution besides the coarse grid
+    /// (the CNNs' refinement grids): `(col, row)` top-left in map pixels and score. They
+    /// count in [`window_cell_scores`]; empty for the core's coarse-to-fine path, whose fine
+    /// scores are on another scale than its coarse ones.
+    pub fine_samples: Vec<(usize, usize, f32)>,
 }
 
 /// The weights a matcher sees for a top-down mask.
@@ -376,39 +381,45 @@ pub fn localize_top_down(
         window_ops,
         dense_s,
         windows_s,
+        fine_samples: Vec::new(),
     })
 }
 
 /// Window scores from the dense coarse response: each of the study's windows gets the best
 /// coarse score of the rover positions in its cell (within half a stride of the window's
-/// centre), so a window 6 m off a sharp texture is not penalised for its offset. Row-major
-/// over `loc.window_grid`.
+/// centre), so a window 6 m off a sharp texture is not penalised for its offset; positions
+/// of [`Localization::fine_samples`] count too. Row-major over `loc.window_grid`.
 pub fn window_cell_scores(loc: &Localization) -> Vec<f32> {
     let wg = loc.window_grid;
     let cg = loc.fix.coarse_grid;
     let half = wg.step as i64 / 2;
-    (0..wg.len())
+    let cell_of = |x: i64, y: i64| -> Option<usize> {
+        // Cell (c, r) holds positions in [c step - half, c step + half).
+        let c = (x + half).div_euclid(wg.step as i64);
+        let r = (y + half).div_euclid(wg.step as i64);
+        (c >= 0 && r >= 0 && (c as usize) < wg.cols && (r as usize) < wg.rows)
+            .then(|| r as usize * wg.cols + c as usize)
+    };
+    let mut best = vec![f32::NEG_INFINITY; wg.len()];
+    let samples = (0..cg.len())
         .map(|i| {
-            let (x0, y0) = (
-                (i % wg.cols * wg.step) as i64,
-                (i / wg.cols * wg.step) as i64,
-            );
-            let mut best = f32::NEG_INFINITY;
-            for r in 0..cg.rows {
-                let y = (r * cg.step) as i64;
-                if y < y0 - half || y >= y0 + half {
-                    continue;
-                }
-                for c in 0..cg.cols {
-                    let x = (c * cg.step) as i64;
-                    if x >= x0 - half && x < x0 + half {
-                        best = best.max(loc.coarse_response[r * cg.cols + c]);
-                    }
-                }
-            }
-            best
+            (
+                (i % cg.cols * cg.step) as i64,
+                (i / cg.cols * cg.step) as i64,
+                loc.coarse_response[i],
+            )
         })
-        .collect()
+        .chain(
+            loc.fine_samples
+                .iter()
+                .map(|&(c, r, s)| (c as i64, r as i64, s)),
+        );
+    for (x, y, s) in samples {
+        if let Some(k) = cell_of(x, y) {
+            best[k] = best[k].max(s);
+        }
+    }
+    best
 }
 
 /// A sentence for a core localization error.

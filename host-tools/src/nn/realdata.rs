@@ -1,7 +1,7 @@
 //! Real training pairs: rover-side top-down images from the **real** pipeline (the four
 //! ground views rendered with [`crate::render::render_views_cached`], reprojected by the
 //! flight core's range reprojection, [`crate::eval::pipeline::reproject_views_range`]), and
-//! satellite windows from the orthographic renderer the evaluation uses for its maps
+//! satellite crops from the orthographic renderer the evaluation uses for its maps
 //! ([`crate::render::render_satellite_crop_cached`], cast shadows included), both through the
 //! core's [`prepare_input`].
 //!
@@ -10,26 +10,30 @@
 //! probability `cross_sun_p` elevation 15-60 deg and azimuth 30-180 deg from the map's
 //! (either side), else the map's sun; with probability `missing_view_p` one view missing
 //! (its 90 deg sector of the top-down image masked out). Satellite: one 100 m x 100 m crop
-//! (400 px at 0.25 m/px) under the map sun, cut into the positive (the 50 m window centred
-//! within 6 m of the truth, uniform over that disc: the study's window grid leaves the truth
-//! up to 8.8 m from the nearest window's centre, so the embedding must tolerate such offsets)
-//! and a hard negative (centred 12.5-25 m from the truth in a random direction: the
-//! neighbouring windows).
+//! (400 px at 0.25 m/px) under the map sun, centred on the truth.
 //!
-//! The set is cached under `dir` as one 12,288-byte file per location (rover, positive, hard
-//! negative inputs, `i8` each 4096), written atomically, so building is resumable: existing
-//! files are kept. Locations whose inputs are unusable (flat / too little coverage) are
-//! redrawn (up to 8 attempts).
+//! Windows are cut from the crop when a batch is drawn ([`sample_triplet`], [`Sampling`]):
+//! the positive is the 50 m window centred within `pos_radius_m` of the truth (the dense
+//! search evaluates windows every 4 m, so the nearest one is at most 2.8 m away), the hard
+//! negative one centred `neg_min_m`-`neg_max_m` away in a random direction (the same crater
+//! field, the wrong place; nearer offsets drawn more often). Every epoch therefore sees new
+//! positives and negatives of the same rendered locations.
+//!
+//! The set is cached under `dir` as one 164,096-byte file per location (rover input, `i8`
+//! 4096; satellite crop, `u8` 400 x 400 row-major, north up), written atomically, so
+//! building is resumable: existing files are kept. Locations whose inputs are unusable (flat
+//! / too little coverage) are redrawn (up to 8 attempts).
 
 use super::data::{Triplet, Zone};
 use crate::eval::pipeline::reproject_views_range;
 use crate::render::{self, terrain::TileCache, RenderOptions, Sun};
 use crate::world::World;
-use anyhow::{Context, Result};
+use anyhow::{ensure, Context, Result};
 use orbfix::nn::input::{prepare_input, INPUT_LEN};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// Satellite crop side around a location, pixels (100 m at 0.25 m/px).
@@ -38,10 +42,105 @@ const CROP_PX: usize = 400;
 const WIN_PX: usize = 200;
 /// Metres per pixel of both sides.
 const M_PER_PX: f64 = 0.25;
-/// Largest offset of the positive window's centre from the truth, metres.
-pub const POS_JITTER_M: f64 = 6.0;
-/// Bytes of one cached location.
-pub const RECORD_LEN: usize = 3 * INPUT_LEN;
+/// Largest window offset the crop allows, metres (half the crop minus half a window).
+pub const MAX_OFFSET_M: f64 = (CROP_PX - WIN_PX) as f64 / 2.0 * M_PER_PX;
+/// Bytes of one cached location: rover input, then the satellite crop.
+pub const RECORD_LEN: usize = INPUT_LEN + CROP_PX * CROP_PX;
+
+/// One cached location.
+#[derive(Clone, Debug)]
+pub struct RealLoc {
+    /// Rover side: the prepared top-down input.
+    pub rover: [i8; INPUT_LEN],
+    /// Satellite crop centred on the truth, `CROP_PX x CROP_PX` at 0.25 m/px, north up.
+    pub crop: Vec<u8>,
+}
+
+/// How positives and hard negatives are cut from a location's crop, metres.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sampling {
+    /// Largest offset of the positive window's centre from the truth.
+    pub pos_radius_m: f64,
+    /// Smallest offset of the hard negative's centre.
+    pub neg_min_m: f64,
+    /// Largest offset of the hard negative's centre (at most [`MAX_OFFSET_M`]).
+    pub neg_max_m: f64,
+}
+
+impl Default for Sampling {
+    fn default() -> Self {
+        Self {
+            pos_radius_m: 2.5,
+            neg_min_m: 5.0,
+            neg_max_m: 25.0,
+        }
+    }
+}
+
+impl Sampling {
+    /// Checks `0 <= pos_radius < neg_min <= neg_max <= MAX_OFFSET_M`.
+    pub fn check(&self) -> Result<()> {
+        ensure!(
+            self.pos_radius_m >= 0.0
+                && self.pos_radius_m < self.neg_min_m
+                && self.neg_min_m <= self.neg_max_m
+                && self.neg_max_m <= MAX_OFFSET_M,
+            "window sampling needs 0 <= positive radius ({}) < negative minimum ({}) <= \
+             negative maximum ({}) <= {MAX_OFFSET_M} m",
+            self.pos_radius_m,
+            self.neg_min_m,
+            self.neg_max_m
+        );
+        Ok(())
+    }
+}
+
+/// Cuts a positive and a hard negative from `loc` (see [`Sampling`]); `None` when a window
+/// has no contrast.
+pub fn sample_triplet(loc: &RealLoc, s: &Sampling, rng: &mut StdRng) -> Option<Triplet> {
+    let jit = s.pos_radius_m * rng.random_range(0.0f64..1.0).sqrt();
+    let jang: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    // Nearer negatives more often (quadratic in a uniform draw).
+    let u: f64 = rng.random_range(0.0..1.0);
+    let dist = s.neg_min_m + (s.neg_max_m - s.neg_min_m) * u * u;
+    let ang: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    let c = (CROP_PX - WIN_PX) as f64 / 2.0;
+    let off = |v: f64| (c + v / M_PER_PX).round().clamp(0.0, 2.0 * c) as usize;
+    // East is +column, north is -row.
+    let pos = crop(
+        &loc.crop,
+        CROP_PX,
+        off(jit * jang.sin()),
+        off(-jit * jang.cos()),
+    );
+    let neg = crop(
+        &loc.crop,
+        CROP_PX,
+        off(dist * ang.sin()),
+        off(-dist * ang.cos()),
+    );
+    let mut t = Triplet {
+        rover: loc.rover,
+        positive: [0; INPUT_LEN],
+        hard_negative: [0; INPUT_LEN],
+    };
+    let ok = prepare_input(&pos, None, WIN_PX, &mut t.positive).is_ok()
+        && prepare_input(&neg, None, WIN_PX, &mut t.hard_negative).is_ok();
+    ok.then_some(t)
+}
+
+/// One triplet per location, deterministic for `seed` (validation and calibration sets);
+/// locations whose windows have no contrast are skipped.
+pub fn fixed_triplets(set: &[RealLoc], s: &Sampling, seed: u64) -> Vec<Triplet> {
+    set.iter()
+        .enumerate()
+        .filter_map(|(i, loc)| {
+            let mut rng =
+                StdRng::seed_from_u64(seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+            sample_triplet(loc, s, &mut rng)
+        })
+        .collect()
+}
 
 /// How a real set is drawn.
 #[derive(Clone, Copy, Debug)]
@@ -88,13 +187,13 @@ fn mask_view(mask: &mut [u8], n: usize, heading_deg: f64, k: usize) {
 }
 
 /// Renders location `index` of `spec`; `None` when every attempt was unusable.
-pub fn real_triplet(
+pub fn real_location(
     world: &World,
     cache: &TileCache,
     opts: &RenderOptions,
     spec: &RealSpec,
     index: u64,
-) -> Result<Option<Triplet>> {
+) -> Result<Option<RealLoc>> {
     for attempt in 0..8u64 {
         let mut rng = StdRng::seed_from_u64(
             spec.seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (attempt << 52),
@@ -120,10 +219,6 @@ pub fn real_triplet(
         let missing = rng
             .random_bool(spec.missing_view_p)
             .then(|| rng.random_range(0..4usize));
-        let dist = rng.random_range(12.5..25.0);
-        let ang: f64 = rng.random_range(0.0..std::f64::consts::TAU);
-        let jit = POS_JITTER_M * rng.random_range(0.0f64..1.0).sqrt();
-        let jang: f64 = rng.random_range(0.0..std::f64::consts::TAU);
 
         let pose = render::ground_pose(world, x, y, heading);
         let set = render::render_views_cached(world, &pose, view_sun, opts, Some(cache))
@@ -152,21 +247,17 @@ pub fn real_triplet(
         )
         .with_context(|| format!("rendering the satellite crop at ({x:.1}, {y:.1}) m"))?;
         let sat = sat.into_raw();
-        let c = (CROP_PX - WIN_PX) / 2;
-        let off = |v: f64| (c as f64 + v / M_PER_PX).round() as usize;
-        let pos = crop(&sat, CROP_PX, off(jit * jang.sin()), off(-jit * jang.cos()));
-        // East is +column, north is -row.
-        let neg = crop(&sat, CROP_PX, off(dist * ang.sin()), off(-dist * ang.cos()));
-        let mut t = Triplet {
+        let mut loc = RealLoc {
             rover: [0; INPUT_LEN],
-            positive: [0; INPUT_LEN],
-            hard_negative: [0; INPUT_LEN],
+            crop: sat,
         };
-        let ok = prepare_input(&top.image, Some(&top.mask), top.n, &mut t.rover).is_ok()
-            && prepare_input(&pos, None, WIN_PX, &mut t.positive).is_ok()
-            && prepare_input(&neg, None, WIN_PX, &mut t.hard_negative).is_ok();
+        let c = (CROP_PX - WIN_PX) / 2;
+        let mut centre = [0i8; INPUT_LEN];
+        let ok = loc.crop.len() == CROP_PX * CROP_PX
+            && prepare_input(&top.image, Some(&top.mask), top.n, &mut loc.rover).is_ok()
+            && prepare_input(&crop(&loc.crop, CROP_PX, c, c), None, WIN_PX, &mut centre).is_ok();
         if ok {
-            return Ok(Some(t));
+            return Ok(Some(loc));
         }
     }
     Ok(None)
@@ -198,16 +289,15 @@ pub fn build(dir: &Path, spec: &RealSpec, n: usize, progress: bool) -> Result<us
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     todo.par_iter().try_for_each(|&i| -> Result<()> {
-        let t = real_triplet(&world, &cache, &opts, spec, i as u64)?;
+        let loc = real_location(&world, &cache, &opts, spec, i as u64)?;
         let mut rec = Vec::with_capacity(RECORD_LEN);
-        // An unusable location is stored as all zeros (no gradient signal, keeps indices).
-        let t = t.unwrap_or(Triplet {
-            rover: [0; INPUT_LEN],
-            positive: [0; INPUT_LEN],
-            hard_negative: [0; INPUT_LEN],
-        });
-        for part in [&t.rover, &t.positive, &t.hard_negative] {
-            rec.extend(part.iter().map(|&v| v as u8));
+        // An unusable location is stored as all zeros (skipped on loading, keeps indices).
+        match loc {
+            Some(l) => {
+                rec.extend(l.rover.iter().map(|&v| v as u8));
+                rec.extend_from_slice(&l.crop);
+            }
+            None => rec.resize(RECORD_LEN, 0),
         }
         crate::fsutil::write_atomic(&record_path(dir, i), &rec)?;
         bar.inc(1);
@@ -217,8 +307,9 @@ pub fn build(dir: &Path, spec: &RealSpec, n: usize, progress: bool) -> Result<us
     Ok(todo.len())
 }
 
-/// Loads every cached location of `dir` (`loc_*.bin`, in index order), checking sizes.
-pub fn load(dir: &Path) -> Result<Vec<Triplet>> {
+/// Loads every cached location of `dir` (`loc_*.bin`, in index order), checking sizes;
+/// unusable (all-zero) locations are skipped.
+pub fn load(dir: &Path) -> Result<Vec<RealLoc>> {
     let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
         .with_context(|| {
             format!(
@@ -237,27 +328,22 @@ pub fn load(dir: &Path) -> Result<Vec<Triplet>> {
     let mut out = Vec::with_capacity(paths.len());
     for p in paths {
         let b = std::fs::read(&p).with_context(|| format!("reading {}", p.display()))?;
-        anyhow::ensure!(
+        ensure!(
             b.len() == RECORD_LEN,
-            "{} is {} bytes, expected {RECORD_LEN} (truncated? delete it and rebuild)",
+            "{} is {} bytes, expected {RECORD_LEN} (truncated, or a set of an older format? \
+             delete it and rebuild with `orbfix train --real-train N --build-only`)",
             p.display(),
             b.len()
         );
-        let mut t = Triplet {
+        let mut loc = RealLoc {
             rover: [0; INPUT_LEN],
-            positive: [0; INPUT_LEN],
-            hard_negative: [0; INPUT_LEN],
+            crop: b[INPUT_LEN..].to_vec(),
         };
-        for (k, dst) in [&mut t.rover, &mut t.positive, &mut t.hard_negative]
-            .into_iter()
-            .enumerate()
-        {
-            for (d, &s) in dst.iter_mut().zip(&b[k * INPUT_LEN..(k + 1) * INPUT_LEN]) {
-                *d = s as i8;
-            }
+        for (d, &s) in loc.rover.iter_mut().zip(&b[..INPUT_LEN]) {
+            *d = s as i8;
         }
-        if t.rover.iter().any(|&v| v != 0) {
-            out.push(t);
+        if loc.rover.iter().any(|&v| v != 0) {
+            out.push(loc);
         }
     }
     Ok(out)

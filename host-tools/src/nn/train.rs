@@ -12,6 +12,7 @@
 
 use super::data::{triplet, Triplet, TRAIN_ZONE, VAL_ZONE};
 use super::float_model::{batch_tensor, FloatNet};
+use super::realdata::{fixed_triplets, sample_triplet, RealLoc, Sampling};
 use crate::world::World;
 use anyhow::{ensure, Context, Result};
 use candle_core::{Device, Tensor, D};
@@ -58,6 +59,9 @@ pub struct TrainConfig {
     /// Float checkpoint to start from (fine-tuning) instead of a fresh initialization.
     #[serde(default)]
     pub init: Option<PathBuf>,
+    /// How positives and hard negatives are cut from the real set's crops.
+    #[serde(default)]
+    pub sampling: Sampling,
 }
 
 /// One logged point.
@@ -127,17 +131,29 @@ fn batch(
         .collect()
 }
 
-/// Batch `step` drawn from a cached real set: `n` distinct locations (deterministic for
-/// `(seed, step)`).
-fn real_batch(set: &[Triplet], seed: u64, step: u64, n: usize) -> Vec<Triplet> {
+/// Batch `step` drawn from a cached real set: `n` distinct locations, each with a freshly
+/// cut positive and hard negative (deterministic for `(seed, step)`).
+fn real_batch(
+    set: &[RealLoc],
+    sampling: &Sampling,
+    seed: u64,
+    step: u64,
+    n: usize,
+) -> Vec<Triplet> {
     let mut rng = StdRng::seed_from_u64(seed ^ step.wrapping_mul(0x2545_F491_4F6C_DD1D));
     let mut idx: Vec<usize> = (0..set.len()).collect();
-    let n = n.min(set.len());
-    for i in 0..n {
+    let mut out = Vec::with_capacity(n);
+    for i in 0..set.len() {
+        if out.len() == n {
+            break;
+        }
         let j = rng.random_range(i..idx.len());
         idx.swap(i, j);
+        if let Some(t) = sample_triplet(&set[idx[i]], sampling, &mut rng) {
+            out.push(t);
+        }
     }
-    idx[..n].iter().map(|&i| set[i].clone()).collect()
+    out
 }
 
 /// Symmetric InfoNCE loss and rover -> satellite top-1 accuracy of a batch.
@@ -178,6 +194,7 @@ pub fn train(dir: &Path, cfg: &TrainConfig) -> Result<TrainState> {
         cfg.checkpoint_every >= 1,
         "checkpoint-every must be at least 1"
     );
+    cfg.sampling.check()?;
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let world = World::new(cfg.world_seed);
     let (net, mut state) = if state_path(dir).exists() {
@@ -247,7 +264,7 @@ pub fn train(dir: &Path, cfg: &TrainConfig) -> Result<TrainState> {
     };
     let val = match (&real, &cfg.real_val) {
         (Some(_), Some(d)) => {
-            let mut v = super::realdata::load(d)?;
+            let mut v = fixed_triplets(&super::realdata::load(d)?, &cfg.sampling, 0x7A1D);
             v.truncate(cfg.val_size);
             ensure!(
                 v.len() >= 2,
@@ -282,7 +299,7 @@ pub fn train(dir: &Path, cfg: &TrainConfig) -> Result<TrainState> {
             cfg.lr * (0.05 + 0.95 * 0.5 * (1.0 + (std::f64::consts::PI * t).cos())),
         );
         let b = match &real {
-            Some(set) => real_batch(set, cfg.seed, state.step, cfg.batch),
+            Some(set) => real_batch(set, &cfg.sampling, cfg.seed, state.step, cfg.batch),
             None => batch(
                 &world,
                 cfg.seed,
