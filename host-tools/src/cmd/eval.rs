@@ -25,7 +25,7 @@ pub struct Args {
     pub queries: usize,
     /// Matcher, or a comma-separated list sharing the renders (ncc, ncc-hp2, ncc-dist, l1, l2,
     /// cnn = shipped int8 CNN, cnn-f32 = float checkpoint at $ORBFIX_CNN_F32 or
-    /// runs/matcher-real/checkpoint.safetensors; the CNNs localize by a dense response every
+    /// runs/matcher-dense/checkpoint.safetensors; the CNNs localize by a dense response every
     /// 4 m over the map, refinement of the 3 best peaks at 1 m + sub-step peak).
     #[arg(long, default_value = "ncc")]
     pub matcher: String,

@@ -17,11 +17,17 @@ pub struct Args {
     /// The command that produced the reports (quoted in the page).
     #[arg(long, default_value = "bash scripts/results.sh")]
     pub command: String,
+    /// Title of the page.
+    #[arg(long, default_value = "Results: matchers x conditions")]
+    pub title: String,
+    /// Markdown appended after the tables.
+    #[arg(long, default_value = "docs/results_notes.md")]
+    pub notes: PathBuf,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let mut md = String::new();
-    writeln!(md, "# Results: matchers x conditions\n")?;
+    writeln!(md, "# {}\n", a.title)?;
     writeln!(
         md,
         "Regenerate with `{}` (it runs `orbfix eval` per reprojection and condition, then \
@@ -99,7 +105,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "no eval reports (eval_<lut|range>_<same-sun|cross-sun>.json) in {}: run scripts/results.sh",
         a.dir.display()
     );
-    let notes = std::fs::read_to_string("docs/results_notes.md").unwrap_or_default();
+    let notes = std::fs::read_to_string(&a.notes).unwrap_or_default();
     md.push_str(&notes);
     write_atomic(&a.out, md.as_bytes())?;
     println!("{}", a.out.display());

@@ -57,7 +57,7 @@ pub struct MatcherSpec {
 }
 
 /// Float checkpoint of `cnn-f32`: `$ORBFIX_CNN_F32` or this default.
-pub const DEFAULT_F32_CHECKPOINT: &str = "runs/matcher-real/checkpoint.safetensors";
+pub const DEFAULT_F32_CHECKPOINT: &str = "runs/matcher-dense/checkpoint.safetensors";
 
 /// Looks a matcher up by name: a base (`l1`, `l2`, `ncc`) followed by options, each
 /// `-dist` (1 / distance weights, full weight within 5 m), `-eq` (top-down brightness
