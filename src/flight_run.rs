@@ -20,7 +20,11 @@
 //!    embeds the top-down image;
 //! 5. `nn_match`: Q15 cosine of that embedding against the embeddings of the map windows
 //!    (the study's 50 m windows every 12.5 m, 441 over 300 x 300 m), which depend only on
-//!    the map and are computed on the ground ([`map_window_embeddings`]) and stored with it.
+//!    the map and are computed on the ground ([`map_window_records`]) and stored with it as
+//!    [`crate::nn::window_cosine`] records (embedding plus its sum and sum of squares), so
+//!    the flight side computes one int8 dot product per window
+//!    ([`crate::nn::window_cosine::cosine_q15_window`], bit for bit
+//!    [`crate::nn::model::cosine_q15`]).
 
 use crate::camera::{CameraParams, RoverPose};
 use crate::geo::GeoRef;
@@ -30,6 +34,9 @@ use crate::matcher::ncc::Ncc;
 use crate::matcher::OpCounts;
 use crate::nn::input::{prepare_input, INPUT_LEN};
 use crate::nn::model::{self as nn_model, Arena, EMBED_LEN};
+use crate::nn::window_cosine::{
+    cosine_q15_window, write_window_record, TemplateStats, WindowRecord, WINDOW_RECORD_BYTES,
+};
 use crate::nn::NnError;
 use crate::reproject::{
     classify_frame, ApplyReport, BuildStats, Cell, FrameStatus, GridSpec, Lut, ReprojectError, Tap,
@@ -102,7 +109,7 @@ pub enum FlightError {
     Nn(NnError),
     /// The shipped weight file did not validate (CRC, shapes).
     Weights,
-    /// The map-window embeddings are not a whole number of embeddings, or none.
+    /// The map-window records are not a whole number of records, or none.
     BadMapEmbeddings,
     /// A scratch buffer is shorter than [`scratch_sizes`] asks.
     ScratchTooSmall,
@@ -140,9 +147,11 @@ pub struct FlightInputs<'a> {
     pub map: ImageView<'a>,
     /// Georeference of `map` (north-west corner, metres per pixel).
     pub map_geo: GeoRef,
-    /// Embeddings of the map windows ([`map_window_embeddings`]), `EMBED_LEN` int8 each,
-    /// row-major over the window grid (computed on the ground, stored with the map).
-    pub map_embeddings: &'a [i8],
+    /// Records of the map windows ([`map_window_records`]), `WINDOW_RECORD_BYTES` each
+    /// (layout in [`crate::nn::window_cosine`]: sums, then the int8 embedding), row-major
+    /// over the window grid (computed on the ground, stored with the map; 4-byte aligned
+    /// start for word loads, though unaligned data works too).
+    pub map_windows: &'a [u8],
 }
 
 /// Settings of the fix.
@@ -502,14 +511,21 @@ pub fn run<C: StageClock>(
 
     clock.begin(Stage::NnMatch);
     let zp = net.embedding_zero_point();
-    if inputs.map_embeddings.is_empty() || inputs.map_embeddings.len() % EMBED_LEN != 0 {
+    if inputs.map_windows.is_empty() || inputs.map_windows.len() % WINDOW_RECORD_BYTES != 0 {
         return Err(FlightError::BadMapEmbeddings);
     }
+    // The rover's side of every cosine, once per fix.
+    let template_stats = TemplateStats::new(scratch.nn_embedding, zp);
     let mut nn_scores_hash = fnv1a_start();
     let mut nn_best = (0u32, i32::MIN);
     let mut nn_windows = 0u32;
-    for (i, e) in inputs.map_embeddings.chunks_exact(EMBED_LEN).enumerate() {
-        let c = nn_model::cosine_q15(&scratch.nn_embedding[..], e, zp);
+    for (i, r) in inputs
+        .map_windows
+        .chunks_exact(WINDOW_RECORD_BYTES)
+        .enumerate()
+    {
+        let w = WindowRecord::parse(r)?;
+        let c = cosine_q15_window(scratch.nn_embedding, &template_stats, &w);
         nn_scores_hash = fnv1a(nn_scores_hash, &c.to_le_bytes());
         if c > nn_best.1 {
             nn_best = (i as u32, c);
@@ -578,16 +594,18 @@ pub fn map_window_grid(n: usize, map_w: usize, map_h: usize) -> Option<(usize, u
     Some(((map_w - n) / step + 1, (map_h - n) / step + 1, step))
 }
 
-/// Computes the embeddings of every map window of [`map_window_grid`] into `out`
-/// (`cols * rows * EMBED_LEN` int8, row-major), with `window` (`n * n` bytes) as the copy
-/// buffer. Done on the ground once per map; the same code as the flight stage.
-pub fn map_window_embeddings(
+/// Computes the records of every map window of [`map_window_grid`] into `out`
+/// (`cols * rows` records of [`WINDOW_RECORD_BYTES`], row-major; layout in
+/// [`crate::nn::window_cosine`]), with `window` (`n * n` bytes) as the copy buffer. Done on
+/// the ground once per map, with the same network code as the flight stage. Returns the
+/// number of windows.
+pub fn map_window_records(
     map: &ImageView<'_>,
     n: usize,
     window: &mut [u8],
     arena: &mut Arena,
     input: &mut [i8; INPUT_LEN],
-    out: &mut [i8],
+    out: &mut [u8],
 ) -> Result<usize, FlightError> {
     let (cols, rows, step) =
         map_window_grid(n, map.width(), map.height()).ok_or(FlightError::BadMapEmbeddings)?;
@@ -596,7 +614,7 @@ pub fn map_window_embeddings(
         .get_mut(..n * n)
         .ok_or(FlightError::ScratchTooSmall)?;
     let mut emb = [0i8; EMBED_LEN];
-    let mut chunks = out.chunks_exact_mut(EMBED_LEN);
+    let mut chunks = out.chunks_exact_mut(WINDOW_RECORD_BYTES);
     for r in 0..rows {
         for c in 0..cols {
             let sub = map
@@ -608,10 +626,7 @@ pub fn map_window_embeddings(
             }
             prepare_input(window, None, n, input)?;
             net.embed(input, arena, &mut emb)?;
-            chunks
-                .next()
-                .ok_or(FlightError::ScratchTooSmall)?
-                .copy_from_slice(&emb);
+            write_window_record(&emb, chunks.next().ok_or(FlightError::ScratchTooSmall)?)?;
         }
     }
     Ok(cols * rows)
