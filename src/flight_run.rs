@@ -35,7 +35,8 @@ use crate::matcher::OpCounts;
 use crate::nn::input::{prepare_input, INPUT_LEN};
 use crate::nn::model::{self as nn_model, Arena, EMBED_LEN};
 use crate::nn::window_cosine::{
-    cosine_q15_window, write_window_record, TemplateStats, WindowRecord, WINDOW_RECORD_BYTES,
+    cosine_q15_window, cosine_q15_window_pair, write_window_record, TemplateStats, WindowRecord,
+    WINDOW_RECORD_BYTES,
 };
 use crate::nn::NnError;
 use crate::reproject::{
@@ -519,18 +520,26 @@ pub fn run<C: StageClock>(
     let mut nn_scores_hash = fnv1a_start();
     let mut nn_best = (0u32, i32::MIN);
     let mut nn_windows = 0u32;
-    for (i, r) in inputs
-        .map_windows
-        .chunks_exact(WINDOW_RECORD_BYTES)
-        .enumerate()
-    {
-        let w = WindowRecord::parse(r)?;
-        let c = cosine_q15_window(scratch.nn_embedding, &template_stats, &w);
+    let mut take = |c: i32| {
         nn_scores_hash = fnv1a(nn_scores_hash, &c.to_le_bytes());
         if c > nn_best.1 {
-            nn_best = (i as u32, c);
+            nn_best = (nn_windows, c);
         }
         nn_windows += 1;
+    };
+    // Two windows per pass (the rover's embedding is read once for both), then the odd one.
+    let pairs = inputs.map_windows.chunks_exact(2 * WINDOW_RECORD_BYTES);
+    let rest = pairs.remainder();
+    for p in pairs {
+        let (r0, r1) = p.split_at(WINDOW_RECORD_BYTES);
+        let (w0, w1) = (WindowRecord::parse(r0)?, WindowRecord::parse(r1)?);
+        let (c0, c1) = cosine_q15_window_pair(scratch.nn_embedding, &template_stats, &w0, &w1);
+        take(c0);
+        take(c1);
+    }
+    if !rest.is_empty() {
+        let w = WindowRecord::parse(rest)?;
+        take(cosine_q15_window(scratch.nn_embedding, &template_stats, &w));
     }
     clock.end(Stage::NnMatch);
 
@@ -583,32 +592,67 @@ pub fn run<C: StageClock>(
     })
 }
 
-/// Top-left corners (map pixels) of the study's window grid over a `map_w x map_h` map:
-/// `n x n` windows (the top-down grid's size) every `n / 4` pixels (12.5 m for 50 m
-/// windows). Returns `(cols, rows, step)`.
-pub fn map_window_grid(n: usize, map_w: usize, map_h: usize) -> Option<(usize, usize, usize)> {
-    let step = (n / 4).max(1);
-    if n == 0 || map_w < n || map_h < n {
-        return None;
+/// Step (pixels) of the study's window grid for `n x n` windows: `n / 4` (12.5 m for 50 m
+/// windows).
+pub const fn study_window_step(n: usize) -> usize {
+    if n >= 4 {
+        n / 4
+    } else {
+        1
     }
-    Some(((map_w - n) / step + 1, (map_h - n) / step + 1, step))
 }
 
-/// Computes the records of every map window of [`map_window_grid`] into `out`
-/// (`cols * rows` records of [`WINDOW_RECORD_BYTES`], row-major; layout in
+/// Step (pixels) of the dense CNN grid: 4 m at `m_per_px` metres per pixel (16 px at
+/// 0.25 m/px: 63 x 63 = 3969 windows of 50 m over a 300 m map), at least 1.
+pub fn dense_window_step(m_per_px: f32) -> usize {
+    let s = 4.0 / m_per_px;
+    if s.is_finite() && s >= 1.0 {
+        (s + 0.5) as usize
+    } else {
+        1
+    }
+}
+
+/// Window grid over a `map_w x map_h` map: `n x n` windows (the top-down grid's size)
+/// every `step` pixels, top-left corners at multiples of `step`. Returns `(cols, rows)`,
+/// or `None` if the map is smaller than a window or `n` or `step` is 0.
+pub fn map_window_grid_step(
+    n: usize,
+    step: usize,
+    map_w: usize,
+    map_h: usize,
+) -> Option<(usize, usize)> {
+    if n == 0 || step == 0 || map_w < n || map_h < n {
+        return None;
+    }
+    Some(((map_w - n) / step + 1, (map_h - n) / step + 1))
+}
+
+/// Top-left corners (map pixels) of the study's window grid over a `map_w x map_h` map:
+/// `n x n` windows (the top-down grid's size) every [`study_window_step`] pixels (12.5 m for
+/// 50 m windows). Returns `(cols, rows, step)`.
+pub fn map_window_grid(n: usize, map_w: usize, map_h: usize) -> Option<(usize, usize, usize)> {
+    let step = study_window_step(n);
+    let (cols, rows) = map_window_grid_step(n, step, map_w, map_h)?;
+    Some((cols, rows, step))
+}
+
+/// Computes the records of every map window of [`map_window_grid_step`]`(n, step, ..)`
+/// into `out` (`cols * rows` records of [`WINDOW_RECORD_BYTES`], row-major; layout in
 /// [`crate::nn::window_cosine`]), with `window` (`n * n` bytes) as the copy buffer. Done on
 /// the ground once per map, with the same network code as the flight stage. Returns the
 /// number of windows.
 pub fn map_window_records(
     map: &ImageView<'_>,
     n: usize,
+    step: usize,
     window: &mut [u8],
     arena: &mut Arena,
     input: &mut [i8; INPUT_LEN],
     out: &mut [u8],
 ) -> Result<usize, FlightError> {
-    let (cols, rows, step) =
-        map_window_grid(n, map.width(), map.height()).ok_or(FlightError::BadMapEmbeddings)?;
+    let (cols, rows) = map_window_grid_step(n, step, map.width(), map.height())
+        .ok_or(FlightError::BadMapEmbeddings)?;
     let net = nn_model::shipped().map_err(|_| FlightError::Weights)?;
     let window = window
         .get_mut(..n * n)
@@ -653,6 +697,16 @@ mod tests {
         assert_eq!(fnv1a(fnv1a_start(), b""), 0x811c_9dc5);
         assert_eq!(fnv1a(fnv1a_start(), b"a"), 0xe40c_292c);
         assert_eq!(fnv1a(fnv1a_start(), b"foobar"), 0xbf9c_f968);
+    }
+
+    #[test]
+    fn window_grids_of_the_study_and_the_dense_cnn() {
+        assert_eq!(map_window_grid(200, 1200, 1200), Some((21, 21, 50)));
+        assert_eq!(dense_window_step(0.25), 16);
+        assert_eq!(map_window_grid_step(200, 16, 1200, 1200), Some((63, 63)));
+        assert_eq!(map_window_grid_step(200, 0, 1200, 1200), None);
+        assert_eq!(map_window_grid_step(200, 16, 199, 1200), None);
+        assert_eq!(dense_window_step(f32::NAN), 1);
     }
 
     #[test]

@@ -242,6 +242,77 @@ fn dot_i8_dsp(a: &[u8; EMBED_LEN], b: &[u8; EMBED_LEN]) -> i32 {
     acc0 + acc1
 }
 
+/// Raw int8 dot products of `a` with two embeddings `b0`, `b1` in one pass: `a`'s words
+/// are loaded and split once for both (bound of [`dot_i8`] on each sum).
+#[inline]
+fn dot2_i8(a: &[u8; EMBED_LEN], b0: &[u8; EMBED_LEN], b1: &[u8; EMBED_LEN]) -> (i32, i32) {
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    {
+        dot2_i8_dsp(a, b0, b1)
+    }
+    #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+    {
+        (dot_i8_portable(a, b0), dot_i8_portable(a, b1))
+    }
+}
+
+/// Armv7E-M form of [`dot2_i8`]: per 32-bit word of `a`, two `SXTB16` (shared by both
+/// windows), then per window one word load, two `SXTB16` and two `SMLAD`: 13 instructions
+/// for 8 products instead of 16.
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+#[inline]
+fn dot2_i8_dsp(a: &[u8; EMBED_LEN], b0: &[u8; EMBED_LEN], b1: &[u8; EMBED_LEN]) -> (i32, i32) {
+    let word = |c: &[u8]| {
+        let mut w = [0u8; 4];
+        w.copy_from_slice(c);
+        u32::from_le_bytes(w)
+    };
+    let (mut s0, mut s1) = (0i32, 0i32);
+    // One word per step: unrolling further runs out of registers (spills).
+    for ((x, y0), y1) in a
+        .chunks_exact(4)
+        .zip(b0.chunks_exact(4))
+        .zip(b1.chunks_exact(4))
+    {
+        (s0, s1) = smlad4x2(s0, s1, word(x), word(y0), word(y1));
+    }
+    (s0, s1)
+}
+
+/// `(s0 + x . y0, s1 + x . y1)` over the four int8 lanes of the words, with SXTB16 and
+/// SMLAD, `x` split once.
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+#[inline(always)]
+fn smlad4x2(s0: i32, s1: i32, x: u32, y0: u32, y1: u32) -> (i32, i32) {
+    let (o0, o1): (i32, i32);
+    // Safety: as in `smlad4`: register-only Armv7E-M DSP instructions, no memory, no
+    // stack, only SMLAD's sticky Q bit written (nothing reads it; sums stay in range).
+    unsafe {
+        core::arch::asm!(
+            "sxtb16 {xe}, {x}",
+            "sxtb16 {xo}, {x}, ror #8",
+            "sxtb16 {t}, {y0}",
+            "smlad {s0}, {xe}, {t}, {s0}",
+            "sxtb16 {t}, {y0}, ror #8",
+            "smlad {s0}, {xo}, {t}, {s0}",
+            "sxtb16 {t}, {y1}",
+            "smlad {s1}, {xe}, {t}, {s1}",
+            "sxtb16 {t}, {y1}, ror #8",
+            "smlad {s1}, {xo}, {t}, {s1}",
+            s0 = inout(reg) s0 => o0,
+            s1 = inout(reg) s1 => o1,
+            x = in(reg) x,
+            y0 = in(reg) y0,
+            y1 = in(reg) y1,
+            xe = out(reg) _,
+            xo = out(reg) _,
+            t = out(reg) _,
+            options(pure, nomem, nostack),
+        );
+    }
+    (o0, o1)
+}
+
 /// `acc + sum of the four int8 products of words x and y` with SXTB16 and SMLAD.
 #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
 #[inline(always)]
@@ -281,6 +352,23 @@ pub fn cosine_q15_window(a: &[i8; EMBED_LEN], t: &TemplateStats, w: &WindowRecor
     let a_bytes: &[u8; EMBED_LEN] = unsafe { &*(a as *const [i8; EMBED_LEN]).cast() };
     let raw = dot_i8(a_bytes, w.emb) as i64;
     score_from_sums(raw, t, w.sum, w.sum_sq)
+}
+
+/// [`cosine_q15_window`] of two windows at once (the rover's embedding is read once for
+/// both): `(cosine with w0, cosine with w1)`, each exactly as [`cosine_q15_window`].
+pub fn cosine_q15_window_pair(
+    a: &[i8; EMBED_LEN],
+    t: &TemplateStats,
+    w0: &WindowRecord<'_>,
+    w1: &WindowRecord<'_>,
+) -> (i32, i32) {
+    // Safety: as in `cosine_q15_window`.
+    let a_bytes: &[u8; EMBED_LEN] = unsafe { &*(a as *const [i8; EMBED_LEN]).cast() };
+    let (r0, r1) = dot2_i8(a_bytes, w0.emb, w1.emb);
+    (
+        score_from_sums(r0 as i64, t, w0.sum, w0.sum_sq),
+        score_from_sums(r1 as i64, t, w1.sum, w1.sum_sq),
+    )
 }
 
 /// The per-window arithmetic after the dot product (all i64/u64, no overflow for any
@@ -391,6 +479,9 @@ mod tests {
         let mut b = [0i8; EMBED_LEN];
         let mut rec = [0u8; WINDOW_RECORD_BYTES];
         let mut nonzero = 0;
+        let mut prev_rec = [0u8; WINDOW_RECORD_BYTES];
+        let mut prev_b = [0i8; EMBED_LEN];
+        write_window_record(&prev_b, &mut prev_rec).unwrap();
         for i in 0..1500 {
             embedding(&mut r, &mut a);
             embedding(&mut r, &mut b);
@@ -399,6 +490,7 @@ mod tests {
             }
             write_window_record(&b, &mut rec).unwrap();
             let w = WindowRecord::parse(&rec).unwrap();
+            let prev = WindowRecord::parse(&prev_rec).unwrap();
             let zps = [
                 -128,
                 127,
@@ -410,10 +502,18 @@ mod tests {
                 let t = TemplateStats::new(&a, zp);
                 let want = cosine_q15(&a, &b, zp);
                 assert_eq!(cosine_q15_window(&a, &t, &w), want, "pair {i}, zp {zp}");
+                let pair = cosine_q15_window_pair(&a, &t, &w, &prev);
+                assert_eq!(
+                    pair,
+                    (want, cosine_q15(&a, &prev_b, zp)),
+                    "pair {i}, zp {zp}"
+                );
                 if want != 0 {
                     nonzero += 1;
                 }
             }
+            prev_rec = rec;
+            prev_b = b;
         }
         // The comparison is not vacuous: most scores are not the 0 of a zero norm.
         assert!(nonzero > 5000, "{nonzero}");

@@ -11,7 +11,7 @@ use orbfix::geo::GeoRef;
 use orbfix::image::ImageView;
 use orbfix::nn::input::INPUT_LEN;
 use orbfix::nn::model::{Arena, EMBED_LEN};
-use orbfix::nn::window_cosine::window_records_bytes;
+use orbfix::nn::window_cosine::{window_records_bytes, WINDOW_RECORD_BYTES};
 use std::path::Path;
 
 /// Everything the firmware embeds.
@@ -35,6 +35,8 @@ pub struct Vectors {
     pub map_geo: GeoRef,
     /// Side of the top-down grid (cells) the map-window embeddings were made for.
     pub grid_n: usize,
+    /// Step of the map-window grid, pixels (the study's `grid_n / 4`, or the dense 4 m grid).
+    pub window_step_px: usize,
     /// Records of the map windows: CNN embedding with its sums (computed on the ground with
     /// the core's network; layout in `orbfix::nn::window_cosine`).
     pub map_windows: Vec<u8>,
@@ -84,16 +86,25 @@ fn texture(w: usize, h: usize, cell: usize, rng: &mut SplitMix) -> Vec<u8> {
 
 /// CNN records (embedding and sums) of the windows of an `n x n` map for a `grid_n`
 /// top-down grid.
-fn embed_map(map: &[u8], n: usize, grid_n: usize) -> Result<Vec<u8>> {
-    let (cols, rows, _) = flight_run::map_window_grid(grid_n, n, n)
-        .with_context(|| format!("the map ({n} px) is smaller than a {grid_n} px window"))?;
+fn embed_map(map: &[u8], n: usize, grid_n: usize, step: usize) -> Result<Vec<u8>> {
+    let (cols, rows) = flight_run::map_window_grid_step(grid_n, step, n, n).with_context(|| {
+        format!("the map ({n} px) is smaller than a {grid_n} px window, or the step is 0")
+    })?;
     let view = ImageView::new(map, n, n).map_err(|e| anyhow::anyhow!("map: {e:?}"))?;
     let mut out = vec![0u8; window_records_bytes(cols * rows)];
     let mut window = vec![0u8; grid_n * grid_n];
     let mut arena = Box::new(Arena::new());
     let mut input = Box::new([0i8; INPUT_LEN]);
-    flight_run::map_window_records(&view, grid_n, &mut window, &mut arena, &mut input, &mut out)
-        .map_err(|e| anyhow::anyhow!("cannot embed the map windows: {e:?}"))?;
+    flight_run::map_window_records(
+        &view,
+        grid_n,
+        step,
+        &mut window,
+        &mut arena,
+        &mut input,
+        &mut out,
+    )
+    .map_err(|e| anyhow::anyhow!("cannot embed the map windows: {e:?}"))?;
     Ok(out)
 }
 
@@ -112,6 +123,27 @@ impl Vectors {
         m_per_px: f32,
         grid_n: usize,
     ) -> Result<Self> {
+        let step = flight_run::study_window_step(grid_n);
+        Self::synthetic_with_step(
+            seed, width_px, height_px, map_size_m, m_per_px, grid_n, step,
+        )
+    }
+
+    /// [`Self::synthetic`] with map windows every `window_step_px` pixels instead of the
+    /// study's `grid_n / 4` (e.g. [`flight_run::dense_window_step`] for the dense 4 m grid).
+    pub fn synthetic_with_step(
+        seed: u64,
+        width_px: u32,
+        height_px: u32,
+        map_size_m: f32,
+        m_per_px: f32,
+        grid_n: usize,
+        window_step_px: usize,
+    ) -> Result<Self> {
+        ensure!(
+            window_step_px > 0,
+            "the map-window step must be at least 1 pixel"
+        );
         let params = CameraParams {
             width_px,
             height_px,
@@ -167,7 +199,8 @@ impl Vectors {
         for v in &views {
             frames.extend_from_slice(v.as_raw());
         }
-        let map_windows = embed_map(&map, n, grid_n)?;
+        let map_windows = embed_map(&map, n, grid_n, window_step_px)?;
+        let window_count = map_windows.len() / WINDOW_RECORD_BYTES;
         Ok(Self {
             params,
             pose,
@@ -178,13 +211,17 @@ impl Vectors {
             map_h: n,
             map_geo,
             grid_n,
+            window_step_px,
             map_windows,
             source: format!(
                 "synthetic (seed {seed}): value-noise map {n} x {n} px at {m_per_px} m/px \
                  ({map_size_m} m), four {width_px} x {height_px} frames rendered over it as flat \
-                 ground {:.2} m east and {:.2} m north of the prior",
+                 ground {:.2} m east and {:.2} m north of the prior; {} CNN map windows every \
+                 {} m",
                 truth_m.0 - pose.x_m,
-                truth_m.1 - pose.y_m
+                truth_m.1 - pose.y_m,
+                window_count,
+                window_step_px as f32 * m_per_px
             ),
         })
     }
