@@ -170,27 +170,59 @@ impl TemplateStats {
     }
 }
 
-/// Floor of the square root of `n` (digit by digit, two bits per step: shifts, adds and
-/// compares only, no division). Equal to [`super::input::isqrt_u64`] for every `n`.
+/// Floor of the square root of `n`, one result bit per step from the top (a 32 x 32 -> 64
+/// bit multiply and a compare per bit, no division). Equal to [`super::input::isqrt_u64`]
+/// for every `n`.
 pub const fn isqrt_u64_bits(n: u64) -> u64 {
-    let mut rem = n;
-    let mut root = 0u64;
-    // The largest power of four not above n (1 << 62 at most).
-    let mut bit = if n == 0 {
-        0
-    } else {
-        1u64 << ((63 - n.leading_zeros()) & !1)
-    };
-    while bit != 0 {
-        if rem >= root + bit {
-            rem -= root + bit;
-            root = (root >> 1) + bit;
-        } else {
-            root >>= 1;
-        }
-        bit >>= 2;
+    if n == 0 {
+        return 0;
     }
-    root
+    // floor(sqrt(n)) < 2^32, and its top bit is bit floor(log2(n) / 2).
+    let mut bit = 1u32 << ((63 - n.leading_zeros()) / 2);
+    let mut root = 0u32;
+    while bit != 0 {
+        let c = root | bit;
+        // c < 2^32, so c^2 < 2^64: no overflow.
+        if (c as u64) * (c as u64) <= n {
+            root = c;
+        }
+        bit >>= 1;
+    }
+    root as u64
+}
+
+/// `clamp(trunc(num / den), -32768, 32768)` for `den > 0`, 0 for `den == 0`: the Q15
+/// quotient of [`cosine_q15`] (`(dot << 15).checked_div(den)`, clamped), found one bit per
+/// step (a 32 x 32 -> 64 bit multiply and a compare) instead of a 64-bit division.
+pub const fn q15_quotient(num: i64, den: u32) -> i32 {
+    if den == 0 {
+        return 0;
+    }
+    let mag = num.unsigned_abs();
+    let d = den as u64;
+    // floor(mag / d) >= 32768 exactly when mag >= 32768 d (< 2^47: no overflow); the clamp
+    // then gives 32768 in magnitude.
+    let q = if mag >= 32768 * d {
+        32768
+    } else {
+        // floor(mag / d) < 2^15: the largest q with q d <= mag, bit by bit.
+        let mut q = 0u32;
+        let mut bit = 1u32 << 14;
+        while bit != 0 {
+            let c = q | bit;
+            if c as u64 * d <= mag {
+                q = c;
+            }
+            bit >>= 1;
+        }
+        q
+    };
+    // Truncation toward zero: the magnitude's floor with num's sign.
+    if num < 0 {
+        -(q as i32)
+    } else {
+        q as i32
+    }
 }
 
 /// Raw int8 dot product `sum a_i * b_i` of two embeddings given as bytes.
@@ -378,10 +410,9 @@ fn score_from_sums(raw_dot: i64, t: &TemplateStats, sum_b: i32, sum_sq_b: u32) -
     let zp = t.zp;
     let dot = raw_dot - zp * (t.sum as i64 + sum_b as i64) + EMBED_LEN as i64 * zp * zp;
     let nb = u64::try_from(shifted_norm(sum_sq_b, sum_b, zp)).unwrap_or(0);
-    let den = isqrt_u64_bits(t.norm_sq.saturating_mul(nb)) as i64;
-    (dot << 15)
-        .checked_div(den)
-        .map_or(0, |c| c.clamp(-32768, 32768) as i32)
+    // den <= floor(sqrt(u64::MAX)) < 2^32.
+    let den = isqrt_u64_bits(t.norm_sq.saturating_mul(nb)) as u32;
+    q15_quotient(dot << 15, den)
 }
 
 #[cfg(test)]
@@ -412,6 +443,42 @@ mod tests {
             let s = n >> 32;
             for m in [s * s, (s * s).wrapping_sub(1), s * s + 1] {
                 assert_eq!(isqrt_u64_bits(m), isqrt_u64(m), "m = {m}");
+            }
+        }
+    }
+
+    /// `cosine_q15`'s quotient, for comparison.
+    fn reference_quotient(num: i64, den: u32) -> i32 {
+        num.checked_div(den as i64)
+            .map_or(0, |c| c.clamp(-32768, 32768) as i32)
+    }
+
+    #[test]
+    fn q15_quotient_matches_the_division() {
+        let mut r = Rng(0x1234_5678_9abc_def1);
+        let edges = [0u32, 1, 2, 3, 255, 65535, 1 << 27, u32::MAX - 1, u32::MAX];
+        for &den in &edges {
+            for num in [0i64, 1, -1, 32767, -32768, 1 << 40, -(1 << 40), 1 << 47] {
+                for k in [0i64, 1, -1] {
+                    let Some(num) = num.checked_mul(den as i64).map(|m| m + k) else {
+                        continue;
+                    };
+                    assert_eq!(q15_quotient(num, den), reference_quotient(num, den));
+                }
+            }
+        }
+        for _ in 0..100_000 {
+            let den = (r.next() >> (32 + r.next() % 32)) as u32;
+            // |num| up to 2^55 (dot << 15 for any header values) and near multiples of den.
+            let num =
+                ((r.next() >> (9 + r.next() % 55)) as i64) * if r.next() & 1 == 0 { 1 } else { -1 };
+            let near = (num / den.max(1) as i64) * den as i64 + (r.next() % 3) as i64 - 1;
+            for n in [num, near] {
+                assert_eq!(
+                    q15_quotient(n, den),
+                    reference_quotient(n, den),
+                    "{n} / {den}"
+                );
             }
         }
     }
