@@ -35,8 +35,8 @@ use crate::matcher::OpCounts;
 use crate::nn::input::{prepare_input, INPUT_LEN};
 use crate::nn::model::{self as nn_model, Arena, EMBED_LEN};
 use crate::nn::window_cosine::{
-    cosine_q15_window, cosine_q15_window_pair, write_window_record, TemplateStats, WindowRecord,
-    WINDOW_RECORD_BYTES,
+    cosine_q15_window, cosine_q15_windows, write_window_record, TemplateStats, WindowRecord,
+    WINDOWS_PER_PASS, WINDOW_RECORD_BYTES,
 };
 use crate::nn::NnError;
 use crate::reproject::{
@@ -527,18 +527,22 @@ pub fn run<C: StageClock>(
         }
         nn_windows += 1;
     };
-    // Two windows per pass (the rover's embedding is read once for both), then the odd one.
-    let pairs = inputs.map_windows.chunks_exact(2 * WINDOW_RECORD_BYTES);
-    let rest = pairs.remainder();
-    for p in pairs {
-        let (r0, r1) = p.split_at(WINDOW_RECORD_BYTES);
-        let (w0, w1) = (WindowRecord::parse(r0)?, WindowRecord::parse(r1)?);
-        let (c0, c1) = cosine_q15_window_pair(scratch.nn_embedding, &template_stats, &w0, &w1);
-        take(c0);
-        take(c1);
+    // WINDOWS_PER_PASS windows per pass (the rover's embedding is read once for them),
+    // then the rest one by one.
+    const PASS: usize = WINDOWS_PER_PASS;
+    let groups = inputs.map_windows.chunks_exact(PASS * WINDOW_RECORD_BYTES);
+    let rest = groups.remainder();
+    for g in groups {
+        let mut ws = [WindowRecord::EMPTY; PASS];
+        for (w, r) in ws.iter_mut().zip(g.chunks_exact(WINDOW_RECORD_BYTES)) {
+            *w = WindowRecord::parse(r)?;
+        }
+        for c in cosine_q15_windows(scratch.nn_embedding, &template_stats, &ws) {
+            take(c);
+        }
     }
-    if !rest.is_empty() {
-        let w = WindowRecord::parse(rest)?;
+    for r in rest.chunks_exact(WINDOW_RECORD_BYTES) {
+        let w = WindowRecord::parse(r)?;
         take(cosine_q15_window(scratch.nn_embedding, &template_stats, &w));
     }
     clock.end(Stage::NnMatch);

@@ -97,6 +97,19 @@ pub struct WindowRecord<'a> {
     emb: &'a [u8; EMBED_LEN],
 }
 
+/// Zero embedding bytes of [`WindowRecord::EMPTY`].
+static ZERO_EMBEDDING: [u8; EMBED_LEN] = [0; EMBED_LEN];
+
+impl WindowRecord<'static> {
+    /// The record of an all-zero embedding (sums 0): a placeholder to fill arrays of
+    /// records with before parsing into them.
+    pub const EMPTY: Self = Self {
+        sum_sq: 0,
+        sum: 0,
+        emb: &ZERO_EMBEDDING,
+    };
+}
+
 impl<'a> WindowRecord<'a> {
     /// Reads a record from the first [`WINDOW_RECORD_BYTES`] bytes of `bytes`
     /// ([`NnError::BufferSize`] if shorter).
@@ -225,152 +238,116 @@ pub const fn q15_quotient(num: i64, den: u32) -> i32 {
     }
 }
 
-/// Raw int8 dot product `sum a_i * b_i` of two embeddings given as bytes.
-///
-/// Bound: `|a_i * b_i| <= 128 * 128 = 16,384` and there are [`EMBED_LEN`] = 2048 products,
-/// so `|sum| <= 33,554,432 < 2^31`: an `i32` accumulator cannot overflow.
-#[inline]
-fn dot_i8(a: &[u8; EMBED_LEN], b: &[u8; EMBED_LEN]) -> i32 {
-    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-    {
-        dot_i8_dsp(a, b)
-    }
-    #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
-    {
-        dot_i8_portable(a, b)
-    }
-}
+/// Windows scored per pass by the flight stage ([`cosine_q15_windows`]): the rover's
+/// embedding is loaded and split once for all of them. Three keeps every value in a
+/// register on the Cortex-M7 (four spills).
+pub const WINDOWS_PER_PASS: usize = 3;
 
-/// Portable form of [`dot_i8`] (host; LLVM vectorizes it).
-#[cfg_attr(all(target_arch = "arm", feature = "armv7em-dsp"), allow(dead_code))]
-#[inline]
-fn dot_i8_portable(a: &[u8; EMBED_LEN], b: &[u8; EMBED_LEN]) -> i32 {
-    let mut acc = 0i32;
-    for (&p, &q) in a.iter().zip(b.iter()) {
-        acc += (p as i8 as i32) * (q as i8 as i32);
-    }
-    acc
-}
-
-/// Armv7E-M form of [`dot_i8`]: per 32-bit word of each side, `SXTB16` splits the four
-/// int8 values into two pairs of int16 (bytes 0, 2 and, rotated by 8, bytes 1, 3) and two
-/// `SMLAD`s add the four products to the accumulator (no overflow: bound on [`dot_i8`]).
-#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-#[inline]
-fn dot_i8_dsp(a: &[u8; EMBED_LEN], b: &[u8; EMBED_LEN]) -> i32 {
-    let word = |c: &[u8]| {
-        let mut w = [0u8; 4];
-        w.copy_from_slice(c);
-        u32::from_le_bytes(w)
-    };
-    let mut acc0 = 0i32;
-    let mut acc1 = 0i32;
-    for (x, y) in a.chunks_exact(8).zip(b.chunks_exact(8)) {
-        let (xa, xb) = x.split_at(4);
-        let (ya, yb) = y.split_at(4);
-        acc0 = smlad4(acc0, word(xa), word(ya));
-        acc1 = smlad4(acc1, word(xb), word(yb));
-    }
-    acc0 + acc1
-}
-
-/// Raw int8 dot products of `a` with two embeddings `b0`, `b1` in one pass: `a`'s words
-/// are loaded and split once for both (bound of [`dot_i8`] on each sum).
-#[inline]
-fn dot2_i8(a: &[u8; EMBED_LEN], b0: &[u8; EMBED_LEN], b1: &[u8; EMBED_LEN]) -> (i32, i32) {
-    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-    {
-        dot2_i8_dsp(a, b0, b1)
-    }
-    #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
-    {
-        (dot_i8_portable(a, b0), dot_i8_portable(a, b1))
-    }
-}
-
-/// Armv7E-M form of [`dot2_i8`]: per 32-bit word of `a`, two `SXTB16` (shared by both
-/// windows), then per window one word load, two `SXTB16` and two `SMLAD`: 13 instructions
-/// for 8 products instead of 16.
-#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-#[inline]
-fn dot2_i8_dsp(a: &[u8; EMBED_LEN], b0: &[u8; EMBED_LEN], b1: &[u8; EMBED_LEN]) -> (i32, i32) {
-    let word = |c: &[u8]| {
-        let mut w = [0u8; 4];
-        w.copy_from_slice(c);
-        u32::from_le_bytes(w)
-    };
-    let (mut s0, mut s1) = (0i32, 0i32);
-    // One word per step: unrolling further runs out of registers (spills).
-    for ((x, y0), y1) in a
-        .chunks_exact(4)
-        .zip(b0.chunks_exact(4))
-        .zip(b1.chunks_exact(4))
-    {
-        (s0, s1) = smlad4x2(s0, s1, word(x), word(y0), word(y1));
-    }
-    (s0, s1)
-}
-
-/// `(s0 + x . y0, s1 + x . y1)` over the four int8 lanes of the words, with SXTB16 and
-/// SMLAD, `x` split once.
+/// The 32-bit little-endian word at byte `off` of `b` (0 past the end, which the callers'
+/// loop bounds never reach).
 #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
 #[inline(always)]
-fn smlad4x2(s0: i32, s1: i32, x: u32, y0: u32, y1: u32) -> (i32, i32) {
-    let (o0, o1): (i32, i32);
-    // Safety: as in `smlad4`: register-only Armv7E-M DSP instructions, no memory, no
-    // stack, only SMLAD's sticky Q bit written (nothing reads it; sums stay in range).
+fn word_at(b: &[u8; EMBED_LEN], off: usize) -> u32 {
+    match b.get(off..off + 4) {
+        Some(&[b0, b1, b2, b3]) => u32::from_le_bytes([b0, b1, b2, b3]),
+        _ => 0,
+    }
+}
+
+/// Raw int8 dot products `sum_i a_i * b_k,i` of `a` with each of `K` embeddings (all given
+/// as two's-complement bytes) in one pass over `a`.
+///
+/// Bound: `|a_i * b_i| <= 128 * 128 = 16,384` and there are [`EMBED_LEN`] = 2048 products,
+/// so `|sum| <= 33,554,432 < 2^31`: `i32` accumulators cannot overflow.
+#[inline(always)]
+fn dot_i8<const K: usize>(a: &[u8; EMBED_LEN], bs: [&[u8; EMBED_LEN]; K]) -> [i32; K] {
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    {
+        dot_i8_dsp(a, bs)
+    }
+    #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+    {
+        bs.map(|b| {
+            let mut acc = 0i32;
+            for (&p, &q) in a.iter().zip(b.iter()) {
+                acc += (p as i8 as i32) * (q as i8 as i32);
+            }
+            acc
+        })
+    }
+}
+
+/// Armv7E-M form of [`dot_i8`]: per 32-bit word of `a`, two `SXTB16` split its four int8
+/// values into two pairs of int16 (bytes 0, 2 and, rotated by 8, bytes 1, 3), shared by
+/// all `K` windows; per window, one word load, two `SXTB16` and two `SMLAD` add the four
+/// products (no overflow: bound on [`dot_i8`]). `3 + 5 K` instructions per word of `K`
+/// windows plus the loop's.
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+#[inline(always)]
+fn dot_i8_dsp<const K: usize>(a: &[u8; EMBED_LEN], bs: [&[u8; EMBED_LEN]; K]) -> [i32; K] {
+    let mut s = [0i32; K];
+    let mut off = 0;
+    while off + 4 <= EMBED_LEN {
+        let (xe, xo) = sxtb16_pair(word_at(a, off));
+        for (acc, b) in s.iter_mut().zip(bs.iter()) {
+            *acc = smlad_pair(*acc, xe, xo, word_at(b, off));
+        }
+        off += 4;
+    }
+    s
+}
+
+/// `(SXTB16 x, SXTB16 (x ROR 8))`: int8 lanes 0, 2 and 1, 3 of `x` as int16 pairs.
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+#[inline(always)]
+fn sxtb16_pair(x: u32) -> (u32, u32) {
+    let (e, o): (u32, u32);
+    // Safety: register-only Armv7E-M DSP instructions (this function only exists with the
+    // `armv7em-dsp` feature, for Cortex-M4/M7 targets); no memory, no stack, no flags.
     unsafe {
         core::arch::asm!(
-            "sxtb16 {xe}, {x}",
-            "sxtb16 {xo}, {x}, ror #8",
-            "sxtb16 {t}, {y0}",
-            "smlad {s0}, {xe}, {t}, {s0}",
-            "sxtb16 {t}, {y0}, ror #8",
-            "smlad {s0}, {xo}, {t}, {s0}",
-            "sxtb16 {t}, {y1}",
-            "smlad {s1}, {xe}, {t}, {s1}",
-            "sxtb16 {t}, {y1}, ror #8",
-            "smlad {s1}, {xo}, {t}, {s1}",
-            s0 = inout(reg) s0 => o0,
-            s1 = inout(reg) s1 => o1,
+            "sxtb16 {e}, {x}",
+            "sxtb16 {o}, {x}, ror #8",
             x = in(reg) x,
-            y0 = in(reg) y0,
-            y1 = in(reg) y1,
-            xe = out(reg) _,
-            xo = out(reg) _,
+            e = out(reg) e,
+            o = out(reg) o,
+            options(pure, nomem, nostack, preserves_flags),
+        );
+    }
+    (e, o)
+}
+
+/// `acc + x . y` over four int8 lanes, with `x` already split by [`sxtb16_pair`] into
+/// `xe`, `xo`: `SXTB16` and `SMLAD` twice.
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+#[inline(always)]
+fn smlad_pair(acc: i32, xe: u32, xo: u32, y: u32) -> i32 {
+    let out: i32;
+    // Safety: register-only Armv7E-M DSP instructions (`armv7em-dsp` feature only); no
+    // memory, no stack; SMLAD only sets the sticky Q bit on overflow, which the bound on
+    // `dot_i8` rules out and nothing reads.
+    unsafe {
+        core::arch::asm!(
+            "sxtb16 {t}, {y}",
+            "smlad {acc}, {xe}, {t}, {acc}",
+            "sxtb16 {t}, {y}, ror #8",
+            "smlad {acc}, {xo}, {t}, {acc}",
+            acc = inout(reg) acc => out,
+            xe = in(reg) xe,
+            xo = in(reg) xo,
+            y = in(reg) y,
             t = out(reg) _,
             options(pure, nomem, nostack),
         );
     }
-    (o0, o1)
+    out
 }
 
-/// `acc + sum of the four int8 products of words x and y` with SXTB16 and SMLAD.
-#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-#[inline(always)]
-fn smlad4(acc: i32, x: u32, y: u32) -> i32 {
-    let out: i32;
-    // Safety: register-only DSP instructions of Armv7E-M (this function only exists with
-    // the `armv7em-dsp` feature, for Cortex-M4/M7 targets); no memory access, no stack, flags untouched
-    // except SMLAD's sticky Q bit, which nothing reads (and the bound on `dot_i8` keeps
-    // the sums in range).
-    unsafe {
-        core::arch::asm!(
-            "sxtb16 {xe}, {x}",
-            "sxtb16 {ye}, {y}",
-            "smlad {acc}, {xe}, {ye}, {acc}",
-            "sxtb16 {xe}, {x}, ror #8",
-            "sxtb16 {ye}, {y}, ror #8",
-            "smlad {acc}, {xe}, {ye}, {acc}",
-            acc = inout(reg) acc => out,
-            x = in(reg) x,
-            y = in(reg) y,
-            xe = out(reg) _,
-            ye = out(reg) _,
-            options(pure, nomem, nostack),
-        );
-    }
-    out
+/// The rover's embedding as its two's-complement bytes.
+fn as_bytes(a: &[i8; EMBED_LEN]) -> &[u8; EMBED_LEN] {
+    // Safety: i8 and u8 have the same size and alignment, and every bit pattern is valid
+    // for both, so an `[i8; N]` may be read as an `[u8; N]`; the borrow is kept.
+    unsafe { &*(a as *const [i8; EMBED_LEN]).cast::<[u8; EMBED_LEN]>() }
 }
 
 /// Q15 cosine (32768 = 1.0) of the rover's embedding `a` (statistics `t` from
@@ -379,28 +356,24 @@ fn smlad4(acc: i32, x: u32, y: u32) -> i32 {
 /// either embedding is all zero point. A record whose sums do not belong to its embedding
 /// (corrupted data) gives some value in `[-32768, 32768]`, never a panic.
 pub fn cosine_q15_window(a: &[i8; EMBED_LEN], t: &TemplateStats, w: &WindowRecord<'_>) -> i32 {
-    // Safety: i8 and u8 have the same size and alignment, and every bit pattern is valid
-    // for both, so an `[i8; N]` may be read as an `[u8; N]` (two's-complement bytes).
-    let a_bytes: &[u8; EMBED_LEN] = unsafe { &*(a as *const [i8; EMBED_LEN]).cast() };
-    let raw = dot_i8(a_bytes, w.emb) as i64;
-    score_from_sums(raw, t, w.sum, w.sum_sq)
+    let [c] = cosine_q15_windows(a, t, &[*w]);
+    c
 }
 
-/// [`cosine_q15_window`] of two windows at once (the rover's embedding is read once for
-/// both): `(cosine with w0, cosine with w1)`, each exactly as [`cosine_q15_window`].
-pub fn cosine_q15_window_pair(
+/// [`cosine_q15_window`] of `K` windows in one pass over the rover's embedding (loaded
+/// and split once for all of them; [`WINDOWS_PER_PASS`] is the flight stage's `K`): each
+/// result exactly as [`cosine_q15_window`] gives it.
+pub fn cosine_q15_windows<const K: usize>(
     a: &[i8; EMBED_LEN],
     t: &TemplateStats,
-    w0: &WindowRecord<'_>,
-    w1: &WindowRecord<'_>,
-) -> (i32, i32) {
-    // Safety: as in `cosine_q15_window`.
-    let a_bytes: &[u8; EMBED_LEN] = unsafe { &*(a as *const [i8; EMBED_LEN]).cast() };
-    let (r0, r1) = dot2_i8(a_bytes, w0.emb, w1.emb);
-    (
-        score_from_sums(r0 as i64, t, w0.sum, w0.sum_sq),
-        score_from_sums(r1 as i64, t, w1.sum, w1.sum_sq),
-    )
+    ws: &[WindowRecord<'_>; K],
+) -> [i32; K] {
+    let raw = dot_i8(as_bytes(a), ws.map(|w| w.emb));
+    let mut out = [0i32; K];
+    for ((o, r), w) in out.iter_mut().zip(raw).zip(ws.iter()) {
+        *o = score_from_sums(r as i64, t, w.sum, w.sum_sq);
+    }
+    out
 }
 
 /// The per-window arithmetic after the dot product (all i64/u64, no overflow for any
@@ -569,12 +542,11 @@ mod tests {
                 let t = TemplateStats::new(&a, zp);
                 let want = cosine_q15(&a, &b, zp);
                 assert_eq!(cosine_q15_window(&a, &t, &w), want, "pair {i}, zp {zp}");
-                let pair = cosine_q15_window_pair(&a, &t, &w, &prev);
-                assert_eq!(
-                    pair,
-                    (want, cosine_q15(&a, &prev_b, zp)),
-                    "pair {i}, zp {zp}"
-                );
+                let prev_want = cosine_q15(&a, &prev_b, zp);
+                let pair = cosine_q15_windows(&a, &t, &[w, prev]);
+                assert_eq!(pair, [want, prev_want], "pair {i}, zp {zp}");
+                let three = cosine_q15_windows(&a, &t, &[prev, w, prev]);
+                assert_eq!(three, [prev_want, want, prev_want], "pair {i}, zp {zp}");
                 if want != 0 {
                     nonzero += 1;
                 }
