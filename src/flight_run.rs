@@ -19,7 +19,8 @@
 //! 4. `nn_embed`: the int8 siamese CNN ([`crate::nn`], shipped weights, CRC-checked)
 //!    embeds the top-down image;
 //! 5. `nn_match`: Q15 cosine of that embedding against the embeddings of the map windows
-//!    (the study's 50 m windows every 12.5 m, 441 over 300 x 300 m), which depend only on
+//!    (50 m windows on the CNN localization's dense 4 m grid, 3969 over 300 x 300 m, or the
+//!    study's 441 every 12.5 m; see [`map_window_grid_step`]), which depend only on
 //!    the map and are computed on the ground ([`map_window_records`]) and stored with it as
 //!    [`crate::nn::window_cosine`] records (embedding plus its sum and sum of squares), so
 //!    the flight side computes one int8 dot product per window

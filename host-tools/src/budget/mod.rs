@@ -482,7 +482,7 @@ pub struct FixReport {
     pub confidence: f32,
     /// Peak on the search border (a failure).
     pub on_border: bool,
-    /// CNN: best-scoring map window (row-major index of the 50 m / 12.5 m grid).
+    /// CNN: best-scoring map window (row-major index over this run's window grid).
     pub nn_best_window: u32,
     /// CNN: the window nearest the true position.
     pub nn_true_window: u32,
@@ -763,12 +763,13 @@ impl Budget {
                 d.step_m,
                 thousands(d.windows),
                 if d.measured {
-                    "This run's firmware scored that grid itself (`orbfix budget --dense-cnn-grid`)."
+                    "This run's firmware scored that grid itself (`orbfix budget --cnn-grid \
+                     dense`, the default)."
                 } else {
                     "This run's firmware scored the study's grid; the dense line is the measured \
                      instructions per window times the dense grid's windows (the per-window work \
-                     does not depend on the window count; `orbfix budget --dense-cnn-grid` \
-                     measures it on the target)."
+                     does not depend on the window count; `orbfix budget --cnn-grid dense`, \
+                     the default, measures it on the target)."
                 }
             ));
         }
@@ -822,7 +823,7 @@ impl Budget {
             kib(self.flash_bytes)
         ));
         m.push_str(&format!(
-            "| external inputs (frames + map, PSRAM) | {} | {}, not working memory |\n\n",
+            "| external inputs (frames, map, CNN map-window records; PSRAM) | {} | {}, not working memory |\n\n",
             thousands(self.external_input_bytes),
             kib(self.external_input_bytes)
         ));
