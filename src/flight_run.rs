@@ -512,7 +512,8 @@ pub fn run<C: StageClock>(
     clock.end(Stage::NnEmbed);
 
     clock.begin(Stage::NnMatch);
-    let zp = net.embedding_zero_point();
+    // The weight check keeps zero points in int8 range; anything else is a bad weight file.
+    let zp = i8::try_from(net.embedding_zero_point()).map_err(|_| FlightError::Weights)?;
     if inputs.map_windows.is_empty() || inputs.map_windows.len() % WINDOW_RECORD_BYTES != 0 {
         return Err(FlightError::BadMapEmbeddings);
     }

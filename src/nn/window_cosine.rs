@@ -3,18 +3,19 @@
 //! cost.
 //!
 //! [`cosine_q15`] shifts both int8 embeddings by the zero point and recomputes both norms
-//! for every pair, in 64-bit accumulators (17.7 instructions per embedding element on the
-//! Cortex-M7). Here the work is split by what it depends on:
+//! for every pair, in 64-bit accumulators (about 18 instructions per embedding element on
+//! the Cortex-M7). Here the work is split by what it depends on:
 //!
 //! - **map side, on the ground** ([`write_window_record`]): each window's embedding is
 //!   stored with the sum and the sum of squares of its raw int8 values, a [`WindowRecord`]
 //!   of [`WINDOW_RECORD_BYTES`] bytes (layout below);
 //! - **rover side, once per fix** ([`TemplateStats::new`]): the same two sums of the
 //!   rover's embedding, and its zero-point-shifted norm;
-//! - **per window** ([`cosine_q15_window`]): only the raw int8 dot product
-//!   `sum a_i * b_i` (i32 accumulator; with the `armv7em-dsp` feature on Arm, four elements
-//!   per pair of 32-bit loads with SXTB16 + SMLAD, otherwise portable code that LLVM turns
-//!   into SMLABB on thumbv7em or vector code on the host), then the zero-point terms, the map norm and the Q15 quotient from the sums.
+//! - **per window** ([`cosine_q15_windows`], [`WINDOWS_PER_PASS`] windows per pass over
+//!   the rover's embedding): only the raw int8 dot product `sum a_i * b_i` (i32
+//!   accumulator; with the `armv7em-dsp` feature on Arm, SXTB16 + SMLAD on 32-bit words,
+//!   otherwise a plain loop), then the zero-point terms, the map norm and the Q15 quotient
+//!   from the sums (about 2 instructions per element on the Cortex-M7, docs/flight-target.md).
 //!
 //! With `n` elements and zero point `zp` the identities are exact integer algebra:
 //!
@@ -23,12 +24,13 @@
 //! sum (b - zp)^2       = sum b^2 - 2 zp sum b + n zp^2
 //! ```
 //!
-//! and the quotient is formed exactly as [`cosine_q15`] forms it (`(dot << 15) /
-//! isqrt(na * nb)`, truncating, clamped to `[-32768, 32768]`, 0 for a zero norm), with the
-//! same floor square root ([`isqrt_u64_bits`] is the digit-by-digit method, no division, and
-//! equals [`super::input::isqrt_u64`], Newton's method with a 64-bit division per step, for
-//! every input), so the score is identical for every
-//! pair of embeddings and every zero point. The records do not depend on the zero point.
+//! and the quotient is formed as [`cosine_q15`] forms it (`(dot << 15) / isqrt(na * nb)`,
+//! truncating, clamped to `[-32768, 32768]`, 0 for a zero norm) from the same floor square
+//! root ([`isqrt_u64_bits`], one result bit per step, equals
+//! [`super::input::isqrt_u64`]'s Newton iteration for every input) and the same quotient
+//! ([`q15_quotient`], bit search instead of a 64-bit division), so the score is identical
+//! for every pair of embeddings and every zero point. The records do not depend on the
+//! zero point.
 //!
 //! # Window record layout ([`WINDOW_RECORD_BYTES`] = 2056 bytes, a multiple of 4)
 //!
@@ -151,7 +153,8 @@ impl<'a> WindowRecord<'a> {
 }
 
 /// `n * zp^2 - 2 zp s + q` for `n` values with sum `s` and sum of squares `q`: the squared
-/// norm of the zero-point-shifted values (exact in i64 for any `zp`, `s`, `q` given).
+/// norm of the zero-point-shifted values (exact in i64 for any `s`, `q` and an int8 `zp`:
+/// |terms| <= 2^32, 2^40, 2^25).
 fn shifted_norm(q: u32, s: i32, zp: i64) -> i64 {
     q as i64 - 2 * zp * s as i64 + EMBED_LEN as i64 * zp * zp
 }
@@ -166,8 +169,9 @@ pub struct TemplateStats {
 }
 
 impl TemplateStats {
-    /// Statistics of embedding `a` with zero point `zp` (the network's output zero point).
-    pub fn new(a: &[i8; EMBED_LEN], zp: i32) -> Self {
+    /// Statistics of embedding `a` with zero point `zp` (the network's output zero point,
+    /// an int8 value: every product and sum below then stays far inside `i64`).
+    pub fn new(a: &[i8; EMBED_LEN], zp: i8) -> Self {
         let (s, q) = sums(a);
         let zp = zp as i64;
         Self {
@@ -468,9 +472,9 @@ mod tests {
         let w = WindowRecord::parse(&rec).unwrap();
         assert_eq!(w.sum(), -128 * 2047 + 3);
         assert_eq!(w.sum_sq(), 16384 * 2047 + 9);
-        for zp in [-128, -1, 0, 1, 127] {
+        for zp in [-128i8, -1, 0, 1, 127] {
             let t = TemplateStats::new(&a, zp);
-            assert_eq!(cosine_q15_window(&a, &t, &w), cosine_q15(&a, &b, zp));
+            assert_eq!(cosine_q15_window(&a, &t, &w), cosine_q15(&a, &b, zp as i32));
         }
         assert_eq!(
             WindowRecord::parse(&rec[..WINDOW_RECORD_BYTES - 1]).err(),
@@ -534,17 +538,17 @@ mod tests {
             let w = WindowRecord::parse(&rec).unwrap();
             let prev = WindowRecord::parse(&prev_rec).unwrap();
             let zps = [
-                -128,
+                -128i8,
                 127,
                 0,
-                (r.next() % 256) as i32 - 128,
-                a[(r.next() % EMBED_LEN as u64) as usize] as i32,
+                r.next() as i8,
+                a[(r.next() % EMBED_LEN as u64) as usize],
             ];
             for zp in zps {
                 let t = TemplateStats::new(&a, zp);
-                let want = cosine_q15(&a, &b, zp);
+                let want = cosine_q15(&a, &b, zp as i32);
                 assert_eq!(cosine_q15_window(&a, &t, &w), want, "pair {i}, zp {zp}");
-                let prev_want = cosine_q15(&a, &prev_b, zp);
+                let prev_want = cosine_q15(&a, &prev_b, zp as i32);
                 let pair = cosine_q15_windows(&a, &t, &[w, prev]);
                 assert_eq!(pair, [want, prev_want], "pair {i}, zp {zp}");
                 let three = cosine_q15_windows(&a, &t, &[prev, w, prev]);
