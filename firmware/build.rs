@@ -22,7 +22,7 @@ fn main() {
              `orbfix budget --vectors-only DIR` and set ORBFIX_VECTORS_DIR=DIR."
         )
         });
-    for name in ["vectors.rs", "frames.bin", "map.bin", "map_emb.bin"] {
+    for name in ["vectors.rs", "frames.bin", "map.bin", "map_windows.bin"] {
         let src = dir.join(name);
         fs::copy(&src, out.join(name)).unwrap_or_else(|e| {
             panic!(

@@ -19,8 +19,13 @@
 //! 4. `nn_embed`: the int8 siamese CNN ([`crate::nn`], shipped weights, CRC-checked)
 //!    embeds the top-down image;
 //! 5. `nn_match`: Q15 cosine of that embedding against the embeddings of the map windows
-//!    (the study's 50 m windows every 12.5 m, 441 over 300 x 300 m), which depend only on
-//!    the map and are computed on the ground ([`map_window_embeddings`]) and stored with it.
+//!    (50 m windows on the CNN localization's dense 4 m grid, 3969 over 300 x 300 m, or the
+//!    study's 441 every 12.5 m; see [`map_window_grid_step`]), which depend only on
+//!    the map and are computed on the ground ([`map_window_records`]) and stored with it as
+//!    [`crate::nn::window_cosine`] records (embedding plus its sum and sum of squares), so
+//!    the flight side computes one int8 dot product per window
+//!    ([`crate::nn::window_cosine::cosine_q15_window`], bit for bit
+//!    [`crate::nn::model::cosine_q15`]).
 
 use crate::camera::{CameraParams, RoverPose};
 use crate::geo::GeoRef;
@@ -30,6 +35,10 @@ use crate::matcher::ncc::Ncc;
 use crate::matcher::OpCounts;
 use crate::nn::input::{prepare_input, INPUT_LEN};
 use crate::nn::model::{self as nn_model, Arena, EMBED_LEN};
+use crate::nn::window_cosine::{
+    cosine_q15_window, cosine_q15_windows, write_window_record, TemplateStats, WindowRecord,
+    WINDOWS_PER_PASS, WINDOW_RECORD_BYTES,
+};
 use crate::nn::NnError;
 use crate::reproject::{
     classify_frame, ApplyReport, BuildStats, Cell, FrameStatus, GridSpec, Lut, ReprojectError, Tap,
@@ -102,7 +111,7 @@ pub enum FlightError {
     Nn(NnError),
     /// The shipped weight file did not validate (CRC, shapes).
     Weights,
-    /// The map-window embeddings are not a whole number of embeddings, or none.
+    /// The map-window records are not a whole number of records, or none.
     BadMapEmbeddings,
     /// A scratch buffer is shorter than [`scratch_sizes`] asks.
     ScratchTooSmall,
@@ -140,9 +149,11 @@ pub struct FlightInputs<'a> {
     pub map: ImageView<'a>,
     /// Georeference of `map` (north-west corner, metres per pixel).
     pub map_geo: GeoRef,
-    /// Embeddings of the map windows ([`map_window_embeddings`]), `EMBED_LEN` int8 each,
-    /// row-major over the window grid (computed on the ground, stored with the map).
-    pub map_embeddings: &'a [i8],
+    /// Records of the map windows ([`map_window_records`]), `WINDOW_RECORD_BYTES` each
+    /// (layout in [`crate::nn::window_cosine`]: sums, then the int8 embedding), row-major
+    /// over the window grid (computed on the ground, stored with the map; 4-byte aligned
+    /// start for word loads, though unaligned data works too).
+    pub map_windows: &'a [u8],
 }
 
 /// Settings of the fix.
@@ -501,20 +512,40 @@ pub fn run<C: StageClock>(
     clock.end(Stage::NnEmbed);
 
     clock.begin(Stage::NnMatch);
-    let zp = net.embedding_zero_point();
-    if inputs.map_embeddings.is_empty() || inputs.map_embeddings.len() % EMBED_LEN != 0 {
+    // The weight check keeps zero points in int8 range; anything else is a bad weight file.
+    let zp = i8::try_from(net.embedding_zero_point()).map_err(|_| FlightError::Weights)?;
+    if inputs.map_windows.is_empty() || inputs.map_windows.len() % WINDOW_RECORD_BYTES != 0 {
         return Err(FlightError::BadMapEmbeddings);
     }
+    // The rover's side of every cosine, once per fix.
+    let template_stats = TemplateStats::new(scratch.nn_embedding, zp);
     let mut nn_scores_hash = fnv1a_start();
     let mut nn_best = (0u32, i32::MIN);
     let mut nn_windows = 0u32;
-    for (i, e) in inputs.map_embeddings.chunks_exact(EMBED_LEN).enumerate() {
-        let c = nn_model::cosine_q15(&scratch.nn_embedding[..], e, zp);
+    let mut take = |c: i32| {
         nn_scores_hash = fnv1a(nn_scores_hash, &c.to_le_bytes());
         if c > nn_best.1 {
-            nn_best = (i as u32, c);
+            nn_best = (nn_windows, c);
         }
         nn_windows += 1;
+    };
+    // WINDOWS_PER_PASS windows per pass (the rover's embedding is read once for them),
+    // then the rest one by one.
+    const PASS: usize = WINDOWS_PER_PASS;
+    let groups = inputs.map_windows.chunks_exact(PASS * WINDOW_RECORD_BYTES);
+    let rest = groups.remainder();
+    for g in groups {
+        let mut ws = [WindowRecord::EMPTY; PASS];
+        for (w, r) in ws.iter_mut().zip(g.chunks_exact(WINDOW_RECORD_BYTES)) {
+            *w = WindowRecord::parse(r)?;
+        }
+        for c in cosine_q15_windows(scratch.nn_embedding, &template_stats, &ws) {
+            take(c);
+        }
+    }
+    for r in rest.chunks_exact(WINDOW_RECORD_BYTES) {
+        let w = WindowRecord::parse(r)?;
+        take(cosine_q15_window(scratch.nn_embedding, &template_stats, &w));
     }
     clock.end(Stage::NnMatch);
 
@@ -567,36 +598,73 @@ pub fn run<C: StageClock>(
     })
 }
 
-/// Top-left corners (map pixels) of the study's window grid over a `map_w x map_h` map:
-/// `n x n` windows (the top-down grid's size) every `n / 4` pixels (12.5 m for 50 m
-/// windows). Returns `(cols, rows, step)`.
-pub fn map_window_grid(n: usize, map_w: usize, map_h: usize) -> Option<(usize, usize, usize)> {
-    let step = (n / 4).max(1);
-    if n == 0 || map_w < n || map_h < n {
-        return None;
+/// Step (pixels) of the study's window grid for `n x n` windows: `n / 4` (12.5 m for 50 m
+/// windows).
+pub const fn study_window_step(n: usize) -> usize {
+    if n >= 4 {
+        n / 4
+    } else {
+        1
     }
-    Some(((map_w - n) / step + 1, (map_h - n) / step + 1, step))
 }
 
-/// Computes the embeddings of every map window of [`map_window_grid`] into `out`
-/// (`cols * rows * EMBED_LEN` int8, row-major), with `window` (`n * n` bytes) as the copy
-/// buffer. Done on the ground once per map; the same code as the flight stage.
-pub fn map_window_embeddings(
+/// Step (pixels) of the dense CNN grid: 4 m at `m_per_px` metres per pixel (16 px at
+/// 0.25 m/px: 63 x 63 = 3969 windows of 50 m over a 300 m map), at least 1.
+pub fn dense_window_step(m_per_px: f32) -> usize {
+    let s = 4.0 / m_per_px;
+    if s.is_finite() && s >= 1.0 {
+        (s + 0.5) as usize
+    } else {
+        1
+    }
+}
+
+/// Window grid over a `map_w x map_h` map: `n x n` windows (the top-down grid's size)
+/// every `step` pixels, top-left corners at multiples of `step`. Returns `(cols, rows)`,
+/// or `None` if the map is smaller than a window or `n` or `step` is 0.
+pub fn map_window_grid_step(
+    n: usize,
+    step: usize,
+    map_w: usize,
+    map_h: usize,
+) -> Option<(usize, usize)> {
+    if n == 0 || step == 0 || map_w < n || map_h < n {
+        return None;
+    }
+    Some(((map_w - n) / step + 1, (map_h - n) / step + 1))
+}
+
+/// Top-left corners (map pixels) of the study's window grid over a `map_w x map_h` map:
+/// `n x n` windows (the top-down grid's size) every [`study_window_step`] pixels (12.5 m for
+/// 50 m windows). Returns `(cols, rows, step)`.
+pub fn map_window_grid(n: usize, map_w: usize, map_h: usize) -> Option<(usize, usize, usize)> {
+    let step = study_window_step(n);
+    let (cols, rows) = map_window_grid_step(n, step, map_w, map_h)?;
+    Some((cols, rows, step))
+}
+
+/// Computes the records of every map window of [`map_window_grid_step`]`(n, step, ..)`
+/// into `out` (`cols * rows` records of [`WINDOW_RECORD_BYTES`], row-major; layout in
+/// [`crate::nn::window_cosine`]), with `window` (`n * n` bytes) as the copy buffer. Done on
+/// the ground once per map, with the same network code as the flight stage. Returns the
+/// number of windows.
+pub fn map_window_records(
     map: &ImageView<'_>,
     n: usize,
+    step: usize,
     window: &mut [u8],
     arena: &mut Arena,
     input: &mut [i8; INPUT_LEN],
-    out: &mut [i8],
+    out: &mut [u8],
 ) -> Result<usize, FlightError> {
-    let (cols, rows, step) =
-        map_window_grid(n, map.width(), map.height()).ok_or(FlightError::BadMapEmbeddings)?;
+    let (cols, rows) = map_window_grid_step(n, step, map.width(), map.height())
+        .ok_or(FlightError::BadMapEmbeddings)?;
     let net = nn_model::shipped().map_err(|_| FlightError::Weights)?;
     let window = window
         .get_mut(..n * n)
         .ok_or(FlightError::ScratchTooSmall)?;
     let mut emb = [0i8; EMBED_LEN];
-    let mut chunks = out.chunks_exact_mut(EMBED_LEN);
+    let mut chunks = out.chunks_exact_mut(WINDOW_RECORD_BYTES);
     for r in 0..rows {
         for c in 0..cols {
             let sub = map
@@ -608,10 +676,7 @@ pub fn map_window_embeddings(
             }
             prepare_input(window, None, n, input)?;
             net.embed(input, arena, &mut emb)?;
-            chunks
-                .next()
-                .ok_or(FlightError::ScratchTooSmall)?
-                .copy_from_slice(&emb);
+            write_window_record(&emb, chunks.next().ok_or(FlightError::ScratchTooSmall)?)?;
         }
     }
     Ok(cols * rows)
@@ -638,6 +703,16 @@ mod tests {
         assert_eq!(fnv1a(fnv1a_start(), b""), 0x811c_9dc5);
         assert_eq!(fnv1a(fnv1a_start(), b"a"), 0xe40c_292c);
         assert_eq!(fnv1a(fnv1a_start(), b"foobar"), 0xbf9c_f968);
+    }
+
+    #[test]
+    fn window_grids_of_the_study_and_the_dense_cnn() {
+        assert_eq!(map_window_grid(200, 1200, 1200), Some((21, 21, 50)));
+        assert_eq!(dense_window_step(0.25), 16);
+        assert_eq!(map_window_grid_step(200, 16, 1200, 1200), Some((63, 63)));
+        assert_eq!(map_window_grid_step(200, 0, 1200, 1200), None);
+        assert_eq!(map_window_grid_step(200, 16, 199, 1200), None);
+        assert_eq!(dense_window_step(f32::NAN), 1);
     }
 
     #[test]

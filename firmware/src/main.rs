@@ -46,11 +46,14 @@ use report::Line;
 /// The four frames, dataset order, packed (external memory: inputs).
 #[link_section = ".psram.frames"]
 static FRAMES: [u8; vectors::FRAMES_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/frames.bin"));
-/// CNN embeddings of the map windows, made on the ground with the map (external memory:
-/// inputs, int8 as bytes).
-#[link_section = ".psram.mapemb"]
-static MAP_EMB: [u8; vectors::MAP_EMB_LEN] =
-    *include_bytes!(concat!(env!("OUT_DIR"), "/map_emb.bin"));
+/// CNN records of the map windows (embedding and its sums, `orbfix::nn::window_cosine`
+/// layout), made on the ground with the map (external memory: inputs). 4-byte aligned so
+/// every record's embedding is too (records are a multiple of 4 bytes).
+#[link_section = ".psram.mapwin"]
+static MAP_WINDOWS: Aligned<[u8; vectors::MAP_WINDOWS_LEN]> = Aligned(*include_bytes!(concat!(
+    env!("OUT_DIR"),
+    "/map_windows.bin"
+)));
 /// The orbital map region (external memory: inputs).
 #[link_section = ".psram.map"]
 static MAP: [u8; vectors::MAP_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/map.bin"));
@@ -70,12 +73,9 @@ static mut NN_ARENA: Arena = Arena::new();
 static mut NN_INPUT: [i8; INPUT_LEN] = [0; INPUT_LEN];
 static mut NN_EMBEDDING: [i8; EMBED_LEN] = [0; EMBED_LEN];
 
-/// The map embeddings' bytes as the int8 values they are.
-fn as_i8(b: &'static [u8]) -> &'static [i8] {
-    // Safety: u8 and i8 have the same size and alignment and every bit pattern is valid
-    // for both; the slice is immutable and 'static.
-    unsafe { core::slice::from_raw_parts(b.as_ptr() as *const i8, b.len()) }
-}
+/// 4-byte alignment for word loads.
+#[repr(C, align(4))]
+struct Aligned<T>(T);
 
 fn inputs() -> Option<FlightInputs<'static>> {
     let params = CameraParams {
@@ -108,7 +108,7 @@ fn inputs() -> Option<FlightInputs<'static>> {
             vectors::MAP_GEO[2],
         )
         .ok()?,
-        map_embeddings: as_i8(&MAP_EMB),
+        map_windows: &MAP_WINDOWS.0,
     })
 }
 

@@ -98,6 +98,15 @@ fn host_run_is_deterministic_localizes_and_compares_bit_exactly() {
     assert_eq!(ok.working_total_bytes, 2000 + 3000 + 4000);
     let md = ok.markdown("orbfix budget --json x.json");
     assert!(md.contains("| localize | 40,000 |") && md.contains("bit_exact: true"));
+    // nn_match on the dense 4 m grid, projected from the measured rate: the 60 m map has
+    // 9 x 9 study windows (80 px every 20 px) and 11 x 11 dense ones (every 16 px).
+    assert_eq!(a.nn_windows, 81);
+    let d = ok.nn_match_dense.as_ref().unwrap();
+    assert!(!d.measured);
+    assert_eq!((d.windows, d.measured_windows, d.step_m), (121, 81, 4.0));
+    assert_eq!(d.instructions, 1793); // 1200 instructions / 81 windows x 121, rounded
+    assert_eq!(d.whole_fix_instructions, 48_000 - 1200 + 1793);
+    assert!(md.contains("dense 4 m grid, **projected**") && md.contains("| 1,793 |"));
 
     // One flipped bit in the fix makes it not bit exact, and says where.
     let mut bad = expected.clone();
@@ -128,11 +137,19 @@ fn writes_vectors_the_firmware_can_include() {
     )));
     assert_eq!(std::fs::read(dir.join("frames.bin")).unwrap(), v.frames);
     assert_eq!(std::fs::read(dir.join("map.bin")).unwrap().len(), 240 * 240);
+    let records = 81 * orbfix::nn::window_cosine::WINDOW_RECORD_BYTES;
+    assert_eq!(
+        std::fs::read(dir.join("map_windows.bin")).unwrap(),
+        v.map_windows
+    );
+    assert_eq!(v.map_windows.len(), records);
+    assert!(src.contains(&format!("pub const MAP_WINDOWS_LEN: usize = {records};")));
     std::fs::remove_dir_all(&dir).unwrap();
     // Bad sizes are errors, not panics.
     assert!(Vectors::synthetic(1, 0, 90, 60.0, 0.25, 80).is_err());
     assert!(Vectors::synthetic(1, 160, 90, f32::NAN, 0.25, 80).is_err());
     assert!(Vectors::synthetic(1, 160, 90, 60.0, 0.0, 80).is_err());
+    assert!(Vectors::synthetic_with_step(1, 160, 90, 60.0, 0.25, 80, 0).is_err());
 }
 
 #[test]
@@ -173,4 +190,33 @@ fn elf_reader_rejects_non_elf_and_decodes_thumb_branches() {
     }
     // A 16-bit instruction pair is not a branch.
     assert_eq!(budget::thumb_branch_target(0, 0x4770, 0xbf00), None);
+}
+
+#[test]
+fn dense_grid_vectors_score_every_dense_window_and_count_as_measured() {
+    let cfg = small_cfg();
+    let step = orbfix::flight_run::dense_window_step(0.25);
+    let v = Vectors::synthetic_with_step(3, 160, 90, 60.0, 0.25, 80, step).unwrap();
+    assert_eq!(v.window_step_px, 16);
+    let out = v.host_run(&cfg).unwrap();
+    assert_eq!(out.nn_windows, 121);
+    assert!(v.describe().contains("121 CNN map windows every 4 m"));
+    // Same frames and map as the study-grid vectors of the seed: only the CNN part differs.
+    let study = small_vectors(3).host_run(&cfg).unwrap();
+    assert_eq!(
+        (out.fix, out.embedding_hash),
+        (study.fix, study.embedding_hash)
+    );
+    assert_ne!(out.nn_scores_hash, study.nn_scores_hash);
+    let est = Estimate {
+        target: "cortex-m7".into(),
+        clock_mhz: 100.0,
+        cpi: 1.0,
+    };
+    let report = budget::parse_report(&report_text(&budget::host_results(&out))).unwrap();
+    let b = budget::assemble(&est, &report, &ElfSizes::default(), &cfg, &out, &v, &[]);
+    let d = b.nn_match_dense.unwrap();
+    assert!(d.measured && b.bit_exact);
+    assert_eq!((d.windows, d.instructions), (121, 1200));
+    assert_eq!(d.whole_fix_instructions, b.total_instructions);
 }

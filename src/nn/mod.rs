@@ -12,7 +12,8 @@
 //! - [`input`]: raster + mask to normalized int8 input;
 //! - [`weights`]: `.ofw` weight file parsing with CRC-32 validation;
 //! - [`model`]: the shipped network, its arena, cosine scoring;
-//! - [`matcher`]: the network behind the localization engine's `Matcher` trait.
+//! - [`matcher`]: the network behind the localization engine's `Matcher` trait;
+//! - [`window_cosine`]: the flight path's cosine against stored map-window records.
 
 pub mod conv;
 pub mod dense;
@@ -22,6 +23,7 @@ pub mod model;
 pub mod pool;
 pub mod requant;
 pub mod weights;
+pub mod window_cosine;
 
 /// Errors running a kernel or the network.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

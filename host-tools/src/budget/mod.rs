@@ -402,6 +402,69 @@ pub struct Budget {
     pub vectors: String,
     /// Guest instructions per SysTick tick.
     pub instructions_per_tick: u64,
+    /// `nn_match` on the dense 4 m CNN grid (3969 windows over 300 m): measured when this
+    /// run's map windows were that grid, otherwise projected from the measured per-window
+    /// rate. `None` when the map is smaller than a window.
+    pub nn_match_dense: Option<DenseNnMatch>,
+}
+
+/// `nn_match` on the dense 4 m grid of map windows (the CNN localization's grid).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DenseNnMatch {
+    /// Windows of the dense grid over this run's map.
+    pub windows: u64,
+    /// Grid step, metres.
+    pub step_m: f64,
+    /// `true`: this run scored the dense grid on the target (numbers measured); `false`:
+    /// projected as `instructions_per_window` (measured on this run's windows) x `windows`.
+    pub measured: bool,
+    /// Windows this run scored on the target.
+    pub measured_windows: u64,
+    /// Instructions per window of this run's `nn_match` (measured).
+    pub instructions_per_window: f64,
+    /// `nn_match` instructions on the dense grid (measured or projected).
+    pub instructions: u64,
+    /// Estimated milliseconds of those.
+    pub ms: f64,
+    /// The whole fix with `nn_match` on the dense grid (measured, or this run's total with
+    /// its `nn_match` replaced by the projection).
+    pub whole_fix_instructions: u64,
+    /// Estimated milliseconds of the whole fix with the dense grid.
+    pub whole_fix_ms: f64,
+}
+
+/// `nn_match` on the dense grid for this run (see [`DenseNnMatch`]).
+fn dense_nn_match(
+    est: &Estimate,
+    cfg: &FlightConfig,
+    v: &Vectors,
+    nn_match_insn: u64,
+    measured_windows: u64,
+    total_insn: u64,
+) -> Option<DenseNnMatch> {
+    let step = orbfix::flight_run::dense_window_step(cfg.grid.m_per_px);
+    let (cols, rows) =
+        orbfix::flight_run::map_window_grid_step(cfg.grid.n, step, v.map_w, v.map_h)?;
+    let windows = (cols * rows) as u64;
+    let per_window = nn_match_insn as f64 / measured_windows.max(1) as f64;
+    let measured = v.window_step_px == step && measured_windows == windows;
+    let instructions = if measured {
+        nn_match_insn
+    } else {
+        (per_window * windows as f64).round() as u64
+    };
+    let whole = total_insn - nn_match_insn.min(total_insn) + instructions;
+    Some(DenseNnMatch {
+        windows,
+        step_m: step as f64 * cfg.grid.m_per_px as f64,
+        measured,
+        measured_windows,
+        instructions_per_window: per_window,
+        instructions,
+        ms: est.ms(instructions),
+        whole_fix_instructions: whole,
+        whole_fix_ms: est.ms(whole),
+    })
 }
 
 /// The fix of the budget run, for the record (the budget is about cost, not accuracy).
@@ -419,7 +482,7 @@ pub struct FixReport {
     pub confidence: f32,
     /// Peak on the search border (a failure).
     pub on_border: bool,
-    /// CNN: best-scoring map window (row-major index of the 50 m / 12.5 m grid).
+    /// CNN: best-scoring map window (row-major index over this run's window grid).
     pub nn_best_window: u32,
     /// CNN: the window nearest the true position.
     pub nn_true_window: u32,
@@ -430,7 +493,9 @@ pub struct FixReport {
 /// Row-major index of the map window whose centre is nearest the true position.
 fn true_window(cfg: &FlightConfig, v: &Vectors) -> u32 {
     let n = cfg.grid.n;
-    let Some((cols, rows, step)) = orbfix::flight_run::map_window_grid(n, v.map_w, v.map_h) else {
+    let step = v.window_step_px;
+    let Some((cols, rows)) = orbfix::flight_run::map_window_grid_step(n, step, v.map_w, v.map_h)
+    else {
         return u32::MAX;
     };
     let (c, r) = v.map_geo.to_pixel(v.truth_m.0, v.truth_m.1);
@@ -529,6 +594,9 @@ pub fn assemble(
     } else {
         report.stack_region_bytes
     };
+    let nn_match_dense = stages
+        .get(Stage::NnMatch.name())
+        .and_then(|s| dense_nn_match(est, cfg, v, s.instructions, host.nn_windows as u64, total));
     Budget {
         target: est.target.clone(),
         clock_mhz: est.clock_mhz,
@@ -572,6 +640,7 @@ pub fn assemble(
         firmware_ok: report.ok,
         vectors: v.describe(),
         instructions_per_tick: INSTRUCTIONS_PER_TICK,
+        nn_match_dense,
     }
 }
 
@@ -646,6 +715,64 @@ impl Budget {
             self.instructions_per_tick,
             self.instructions_per_tick
         ));
+        if let Some(d) = &self.nn_match_dense {
+            m.push_str(&format!(
+                "### CNN matching on the dense {} m grid\n\n",
+                d.step_m
+            ));
+            m.push_str("| | windows | instructions | ms | instructions / window |\n");
+            m.push_str("|---|---:|---:|---:|---:|\n");
+            if d.measured {
+                m.push_str(&format!(
+                    "| `nn_match`, dense {} m grid (**measured** above) | {} | {} | {:.3} | {:.1} |\n",
+                    d.step_m,
+                    thousands(d.windows),
+                    thousands(d.instructions),
+                    d.ms,
+                    d.instructions_per_window
+                ));
+            } else if let Some(s) = self.stages.get("nn_match") {
+                m.push_str(&format!(
+                    "| `nn_match` as measured above | {} | {} | {:.3} | {:.1} |\n",
+                    thousands(d.measured_windows),
+                    thousands(s.instructions),
+                    s.ms,
+                    d.instructions_per_window
+                ));
+            }
+            if !d.measured {
+                m.push_str(&format!(
+                    "| `nn_match`, dense {} m grid, **projected** (measured rate x {} windows) | {} | {} | {:.3} | {:.1} |\n",
+                    d.step_m,
+                    thousands(d.windows),
+                    thousands(d.windows),
+                    thousands(d.instructions),
+                    d.ms,
+                    d.instructions_per_window
+                ));
+            }
+            m.push_str(&format!(
+                "| **whole fix** with `nn_match` on the dense grid ({}) | | **{}** | **{:.3}** | |\n\n",
+                if d.measured { "measured" } else { "projected" },
+                thousands(d.whole_fix_instructions),
+                d.whole_fix_ms
+            ));
+            m.push_str(&format!(
+                "The CNN localization scores map windows every {} m ({} windows over this map) \
+                 and ranks the study's windows by the best score in their cell. {}\n\n",
+                d.step_m,
+                thousands(d.windows),
+                if d.measured {
+                    "This run's firmware scored that grid itself (`orbfix budget --cnn-grid \
+                     dense`, the default)."
+                } else {
+                    "This run's firmware scored the study's grid; the dense line is the measured \
+                     instructions per window times the dense grid's windows (the per-window work \
+                     does not depend on the window count; `orbfix budget --cnn-grid dense`, \
+                     the default, measures it on the target)."
+                }
+            ));
+        }
         m.push_str(
             "Per-unit rates: `lut_build` per top-down grid cell, `reproject` per output pixel, \
              `localize` per MAC as the matcher counts them (NCC correlation sums, downsampling \
@@ -696,7 +823,7 @@ impl Budget {
             kib(self.flash_bytes)
         ));
         m.push_str(&format!(
-            "| external inputs (frames + map, PSRAM) | {} | {}, not working memory |\n\n",
+            "| external inputs (frames, map, CNN map-window records; PSRAM) | {} | {}, not working memory |\n\n",
             thousands(self.external_input_bytes),
             kib(self.external_input_bytes)
         ));

@@ -1,6 +1,7 @@
 //! Test vectors for the flight firmware: the rig, a pose prior, four frames and the
 //! orbital map region, written as `vectors.rs` (constants, `f32` as exact bit patterns),
-//! `frames.bin` (four frames, dataset order, packed) and `map.bin` (north-up, packed).
+//! `frames.bin` (four frames, dataset order, packed), `map.bin` (north-up, packed) and
+//! `map_windows.bin` (the map windows' CNN records, `orbfix::nn::window_cosine` layout).
 
 use super::write_atomic;
 use anyhow::{ensure, Context, Result};
@@ -10,6 +11,7 @@ use orbfix::geo::GeoRef;
 use orbfix::image::ImageView;
 use orbfix::nn::input::INPUT_LEN;
 use orbfix::nn::model::{Arena, EMBED_LEN};
+use orbfix::nn::window_cosine::{window_records_bytes, WINDOW_RECORD_BYTES};
 use std::path::Path;
 
 /// Everything the firmware embeds.
@@ -33,8 +35,11 @@ pub struct Vectors {
     pub map_geo: GeoRef,
     /// Side of the top-down grid (cells) the map-window embeddings were made for.
     pub grid_n: usize,
-    /// CNN embeddings of the map windows (computed on the ground with the core's network).
-    pub map_embeddings: Vec<i8>,
+    /// Step of the map-window grid, pixels (the study's `grid_n / 4`, or the dense 4 m grid).
+    pub window_step_px: usize,
+    /// Records of the map windows: CNN embedding with its sums (computed on the ground with
+    /// the core's network; layout in `orbfix::nn::window_cosine`).
+    pub map_windows: Vec<u8>,
     /// How these vectors were made (for reports).
     pub source: String,
 }
@@ -79,17 +84,27 @@ fn texture(w: usize, h: usize, cell: usize, rng: &mut SplitMix) -> Vec<u8> {
         .collect()
 }
 
-/// CNN embeddings of the windows of an `n x n` map for a `grid_n` top-down grid.
-fn embed_map(map: &[u8], n: usize, grid_n: usize) -> Result<Vec<i8>> {
-    let (cols, rows, _) = flight_run::map_window_grid(grid_n, n, n)
-        .with_context(|| format!("the map ({n} px) is smaller than a {grid_n} px window"))?;
+/// CNN records (embedding and sums) of the windows of an `n x n` map for a `grid_n`
+/// top-down grid.
+fn embed_map(map: &[u8], n: usize, grid_n: usize, step: usize) -> Result<Vec<u8>> {
+    let (cols, rows) = flight_run::map_window_grid_step(grid_n, step, n, n).with_context(|| {
+        format!("the map ({n} px) is smaller than a {grid_n} px window, or the step is 0")
+    })?;
     let view = ImageView::new(map, n, n).map_err(|e| anyhow::anyhow!("map: {e:?}"))?;
-    let mut out = vec![0i8; cols * rows * EMBED_LEN];
+    let mut out = vec![0u8; window_records_bytes(cols * rows)];
     let mut window = vec![0u8; grid_n * grid_n];
     let mut arena = Box::new(Arena::new());
     let mut input = Box::new([0i8; INPUT_LEN]);
-    flight_run::map_window_embeddings(&view, grid_n, &mut window, &mut arena, &mut input, &mut out)
-        .map_err(|e| anyhow::anyhow!("cannot embed the map windows: {e:?}"))?;
+    flight_run::map_window_records(
+        &view,
+        grid_n,
+        step,
+        &mut window,
+        &mut arena,
+        &mut input,
+        &mut out,
+    )
+    .map_err(|e| anyhow::anyhow!("cannot embed the map windows: {e:?}"))?;
     Ok(out)
 }
 
@@ -108,6 +123,27 @@ impl Vectors {
         m_per_px: f32,
         grid_n: usize,
     ) -> Result<Self> {
+        let step = flight_run::study_window_step(grid_n);
+        Self::synthetic_with_step(
+            seed, width_px, height_px, map_size_m, m_per_px, grid_n, step,
+        )
+    }
+
+    /// [`Self::synthetic`] with map windows every `window_step_px` pixels instead of the
+    /// study's `grid_n / 4` (e.g. [`flight_run::dense_window_step`] for the dense 4 m grid).
+    pub fn synthetic_with_step(
+        seed: u64,
+        width_px: u32,
+        height_px: u32,
+        map_size_m: f32,
+        m_per_px: f32,
+        grid_n: usize,
+        window_step_px: usize,
+    ) -> Result<Self> {
+        ensure!(
+            window_step_px > 0,
+            "the map-window step must be at least 1 pixel"
+        );
         let params = CameraParams {
             width_px,
             height_px,
@@ -163,7 +199,8 @@ impl Vectors {
         for v in &views {
             frames.extend_from_slice(v.as_raw());
         }
-        let map_embeddings = embed_map(&map, n, grid_n)?;
+        let map_windows = embed_map(&map, n, grid_n, window_step_px)?;
+        let window_count = map_windows.len() / WINDOW_RECORD_BYTES;
         Ok(Self {
             params,
             pose,
@@ -174,13 +211,17 @@ impl Vectors {
             map_h: n,
             map_geo,
             grid_n,
-            map_embeddings,
+            window_step_px,
+            map_windows,
             source: format!(
                 "synthetic (seed {seed}): value-noise map {n} x {n} px at {m_per_px} m/px \
                  ({map_size_m} m), four {width_px} x {height_px} frames rendered over it as flat \
-                 ground {:.2} m east and {:.2} m north of the prior",
+                 ground {:.2} m east and {:.2} m north of the prior; {} CNN map windows every \
+                 {} m",
                 truth_m.0 - pose.x_m,
-                truth_m.1 - pose.y_m
+                truth_m.1 - pose.y_m,
+                window_count,
+                window_step_px as f32 * m_per_px
             ),
         })
     }
@@ -218,7 +259,7 @@ impl Vectors {
             map: ImageView::new(&self.map, self.map_w, self.map_h)
                 .map_err(|e| anyhow::anyhow!("map: {e:?}"))?,
             map_geo: self.map_geo,
-            map_embeddings: &self.map_embeddings,
+            map_windows: &self.map_windows,
         })
     }
 
@@ -247,7 +288,8 @@ impl Vectors {
             .map_err(|e| anyhow::anyhow!("the core rejected the test vectors: {e:?}"))
     }
 
-    /// Writes `vectors.rs`, `frames.bin` and `map.bin` into `dir` (each atomically).
+    /// Writes `vectors.rs`, `frames.bin`, `map.bin` and `map_windows.bin` into `dir` (each
+    /// atomically).
     /// `vectors.rs` also carries the scratch sizes of `cfg` for the firmware's static buffers.
     pub fn write(&self, dir: &Path, cfg: &FlightConfig) -> Result<()> {
         let sz = flight_run::scratch_sizes(cfg, self.map_w, self.map_h)
@@ -272,7 +314,7 @@ impl Vectors {
              pub const MAP_GEO: [f32; 3] = [{}, {}, {}];\n\
              pub const GRID_N: usize = {};\npub const GRID_M_PER_PX: f32 = {};\n\
              pub const LOC_BYTES: usize = {};\npub const LOC_FLOATS: usize = {};\n\
-             pub const MAP_EMB_LEN: usize = {};\n",
+             pub const MAP_WINDOWS_LEN: usize = {};\n",
             self.source,
             p.width_px,
             p.height_px,
@@ -296,12 +338,11 @@ impl Vectors {
             f(cfg.grid.m_per_px),
             sz.loc_bytes,
             sz.loc_floats,
-            self.map_embeddings.len(),
+            self.map_windows.len(),
         );
         write_atomic(&dir.join("frames.bin"), &self.frames)?;
         write_atomic(&dir.join("map.bin"), &self.map)?;
-        let emb: Vec<u8> = self.map_embeddings.iter().map(|&v| v as u8).collect();
-        write_atomic(&dir.join("map_emb.bin"), &emb)?;
+        write_atomic(&dir.join("map_windows.bin"), &self.map_windows)?;
         write_atomic(&dir.join("vectors.rs"), src.as_bytes())?;
         Ok(())
     }

@@ -24,6 +24,15 @@ impl Target {
     }
 }
 
+/// Grids of map windows for the CNN stage.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum CnnGrid {
+    /// 50 m windows every 4 m (the CNN localization's dense response).
+    Dense,
+    /// 50 m windows every 12.5 m (the study's 441 over 300 m).
+    Study,
+}
+
 /// Build the flight firmware, run it in QEMU and write the timing and memory budget.
 ///
 /// Steps: write test vectors (synthetic, deterministic) and compute the host's results with
@@ -71,6 +80,11 @@ pub struct Args {
     /// Side of the orbital map region, metres.
     #[arg(long, default_value_t = 300.0)]
     pub map_size_m: f32,
+    /// Map windows the firmware's `nn_match` scores: `dense`, the CNN localization's 4 m
+    /// grid (3969 over 300 m, 8.2 MB of records in external memory), or `study`, the
+    /// study's 12.5 m grid (441; the dense grid is then projected from its per-window rate).
+    #[arg(long, value_enum, default_value_t = CnnGrid::Dense)]
+    pub cnn_grid: CnnGrid,
     /// Measure even if the firmware is not panic free (it is then built with its
     /// `allow-panic` feature, and the budget records `panic_free: false` and where).
     #[arg(long)]
@@ -257,13 +271,19 @@ pub fn run(args: Args) -> Result<()> {
         .unwrap_or_else(|| target_dir.join("flight-vectors"));
 
     let cfg = FlightConfig::default();
-    let v = Vectors::synthetic(
+    let step = match args.cnn_grid {
+        CnnGrid::Dense => orbfix::flight_run::dense_window_step(cfg.grid.m_per_px),
+        CnnGrid::Study => orbfix::flight_run::study_window_step(cfg.grid.n),
+    };
+    eprintln!("budget: making test vectors (CNN map windows every {step} px)");
+    let v = Vectors::synthetic_with_step(
         args.seed,
         args.width,
         args.height,
         args.map_size_m,
         cfg.grid.m_per_px,
         cfg.grid.n,
+        step,
     )?;
     let host = v.host_run(&cfg)?;
     v.write(&vectors_dir, &cfg)?;
@@ -354,6 +374,17 @@ pub fn run(args: Args) -> Result<()> {
         b.total_instructions, b.total_ms, b.clock_mhz, b.cpi, b.working_ram_bytes, b.static_ram_bytes,
         b.stack_peak_bytes, b.flash_bytes, b.bit_exact
     );
+    if let Some(d) = &b.nn_match_dense {
+        println!(
+            "nn_match on the dense {} m grid ({}): {} windows x {:.1} instructions = {} instructions; whole fix {} instructions",
+            d.step_m,
+            if d.measured { "measured" } else { "projected from the measured rate" },
+            d.windows,
+            d.instructions_per_window,
+            d.instructions,
+            d.whole_fix_instructions
+        );
+    }
     if !report.ok {
         bail!(
             "the firmware reported failure ({:?}; QEMU exit code {code:?})",
