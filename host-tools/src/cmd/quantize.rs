@@ -35,7 +35,7 @@ pub struct Args {
     #[arg(long, default_value_t = 1000)]
     pub eval_seed: u64,
     /// Calibrate on a cached real validation set (`orbfix train --real-train`'s
-    /// `runs/realdata/val`: real rover top-downs and map windows) instead of proxy pairs.
+    /// `runs/realdata2/val`: real rover top-downs and map windows) instead of proxy pairs.
     #[arg(long)]
     pub calibration_real: Option<PathBuf>,
     /// Write the metrics as JSON here.

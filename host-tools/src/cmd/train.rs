@@ -50,7 +50,7 @@ pub struct Args {
     #[arg(long, default_value_t = 64)]
     pub real_val: usize,
     /// Cache of the real set (train/ and val/ subfolders, one file per location).
-    #[arg(long, default_value = "runs/realdata")]
+    #[arg(long, default_value = "runs/realdata2")]
     pub real_dir: PathBuf,
     /// Only build the real set, do not train.
     #[arg(long)]
