@@ -291,7 +291,8 @@ pub fn localize_windows(
         ops_coarse: dense_ops,
         ops_fine,
     };
-    for r in &refined {
+    let mut fine_samples = Vec::new();
+    for r in refined {
         let (x, y) = centre(r.col, r.row);
         // At most `REFINE_WINDOWS` (3) candidates: fits the core's bound.
         let _ = fix.candidates.push(Candidate {
@@ -300,6 +301,7 @@ pub fn localize_windows(
             score: r.score,
             refined: true,
         });
+        fine_samples.extend(r.samples);
     }
     Ok(Localization {
         fix,
@@ -309,6 +311,6 @@ pub fn localize_windows(
         window_ops,
         dense_s: dense_s + fine_s,
         windows_s,
-        fine_samples: refined.iter().flat_map(|r| r.samples.clone()).collect(),
+        fine_samples,
     })
 }
