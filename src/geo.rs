@@ -57,6 +57,21 @@ impl GeoRef {
         )
     }
 
+    /// World `x` (east) of the raster's west edge, metres.
+    pub fn origin_x_m(&self) -> f32 {
+        self.origin_x_m
+    }
+
+    /// World `y` (north) of the raster's north edge, metres.
+    pub fn origin_y_m(&self) -> f32 {
+        self.origin_y_m
+    }
+
+    /// Ground size of one pixel, metres per pixel (finite, positive).
+    pub fn m_per_px(&self) -> f32 {
+        self.m_per_px
+    }
+
     /// World coordinates (metres) of continuous pixel coordinates `(col, row)`
     /// (pixel centres are at `+0.5`).
     pub fn to_world(&self, col: f32, row: f32) -> (f32, f32) {

@@ -100,6 +100,21 @@ impl Grid {
         })
     }
 
+    /// Positions along a row (west to east).
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    /// Positions along a column (north to south).
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Pixels between neighbouring positions.
+    pub fn step(&self) -> usize {
+        self.step
+    }
+
     /// Number of positions.
     pub fn len(&self) -> usize {
         self.cols * self.rows
