@@ -17,6 +17,11 @@
 //! - [`reproject`]: integer lookup-table reprojection of the four views to a top-down grid;
 //! - [`matcher`]: L1, L2 and masked NCC scoring of a top-down image against map windows;
 //! - [`localize`]: the study's 441-window search and the coarse-to-fine dense fix;
+//! - [`fix`]: the one pipeline, four frames and a map product to a position with an error
+//!   bound and a confidence (what flies, what is evaluated and what is budgeted);
+//! - [`map_product`]: the versioned map file the rover carries (map, georeference, CNN
+//!   window records, CRC-32);
+//! - [`peak`]: sub-sample peak location;
 //! - [`flight_run`]: the fix as one call with per-stage hooks (timed on target, re-run on host).
 //! - [`nn`]: quantized siamese CNN matcher (int8 kernels, weight file, shipped network).
 #![no_std]
@@ -28,10 +33,13 @@
 )]
 
 pub mod camera;
+pub mod fix;
 pub mod flight_run;
 pub mod geo;
 pub mod image;
 pub mod localize;
+pub mod map_product;
 pub mod matcher;
 pub mod nn;
+pub mod peak;
 pub mod reproject;

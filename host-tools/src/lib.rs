@@ -9,6 +9,7 @@ pub mod budget;
 pub mod dataset;
 pub mod depth;
 pub mod eval;
+pub mod fix;
 pub mod fsutil;
 pub mod nn;
 pub mod render;

@@ -23,12 +23,17 @@ pub struct Args {
     /// Number of queries (rover stops).
     #[arg(long, default_value_t = 30)]
     pub queries: usize,
-    /// Matcher, or a comma-separated list sharing the renders (ncc, ncc-hp2, ncc-dist, l1, l2,
-    /// cnn = shipped int8 CNN, cnn-f32 = float checkpoint at $ORBFIX_CNN_F32 or
-    /// runs/matcher-dense/checkpoint.safetensors; the CNNs localize by a dense response every
-    /// 4 m over the map, refinement of the 3 best peaks at 1 m + sub-step peak).
-    #[arg(long, default_value = "ncc")]
+    /// Matcher, or a comma-separated list sharing the renders: fix (the flight core's one
+    /// fix, `orbfix::fix::run`: CNN over the map product's 4 m window records, masked NCC
+    /// refinement, sub-pixel peak), fix-ncc (NCC refinement always kept), cnn (the bare CNN:
+    /// its sub-cell peak only); baselines on the core's top-down image: ncc, ncc-hp2,
+    /// ncc-dist, l1, l2.
+    #[arg(long, default_value = "fix")]
     pub matcher: String,
+    /// CNN weight file (.ofw) for the fix matchers and their map products (default: the
+    /// shipped weights/matcher-v1.ofw).
+    #[arg(long)]
+    pub weights: Option<PathBuf>,
     /// Lighting: same-sun (the study's: 30 deg elevation, azimuth 135 deg) or cross-sun
     /// (map and rover suns drawn independently: elevation 20-60 deg, azimuths 60-180 deg apart).
     #[arg(long, value_enum, default_value_t = Condition::SameSun)]
@@ -107,6 +112,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         },
         keep_examples: if a.figures.is_some() { a.examples } else { 0 },
         flat_world: a.flat_world,
+        weights: load_weights(a.weights.as_deref())?,
     };
     let out = run_eval(&cfg, !a.quiet)?;
     print_table(&out);
@@ -122,6 +128,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         println!("figures: {}", dir.display());
     }
     Ok(())
+}
+
+/// The bytes of a weight file, validated (`None`: the shipped weights).
+pub fn load_weights(path: Option<&Path>) -> anyhow::Result<Vec<u8>> {
+    let bytes = match path {
+        None => orbfix::nn::model::SHIPPED_WEIGHTS.to_vec(),
+        Some(p) => std::fs::read(p)
+            .with_context(|| format!("cannot read the weight file {}", p.display()))?,
+    };
+    orbfix::nn::model::SiameseNet::from_bytes(&bytes).map_err(|e| {
+        anyhow::anyhow!(
+            "{} is not a usable weight file ({e:?}); write one with `orbfix quantize`",
+            path.map_or("the shipped weights".into(), |p| p.display().to_string())
+        )
+    })?;
+    Ok(bytes)
 }
 
 /// One line per matcher.
@@ -161,6 +183,40 @@ pub fn print_table(out: &EvalOutput) {
             r.pairs.auc,
             r.pairs.error_rate,
             r.border_rejections
+        );
+    }
+    println!(
+        "{:<12} {:>7} {:>7} {:>9} {:>8} {:>9} {:>11} {:>9} {:>9}",
+        "matcher",
+        "<=1 m",
+        "<=5 m",
+        "median m",
+        "p95 m",
+        "accepted",
+        "wrong-conf",
+        "bound ok",
+        "ms/fix"
+    );
+    for r in &out.reports {
+        let (acc, wrong, cover) = match &r.fix {
+            Some(f) => (
+                format!("{:.3}", f.accepted_share),
+                format!("{}", f.wrong_confident),
+                format!("{:.3}", f.bound_coverage),
+            ),
+            None => ("-".into(), "-".into(), "-".into()),
+        };
+        println!(
+            "{:<12} {:>7.3} {:>7.3} {:>9.3} {:>8.2} {:>9} {:>11} {:>9} {:>9.1}",
+            r.matcher,
+            r.within_m["1"],
+            r.within_m["5"],
+            r.median_error_m,
+            r.p95_error_m,
+            acc,
+            wrong,
+            cover,
+            1000.0 * r.mean_dense_s
         );
     }
 }

@@ -1,20 +1,22 @@
-//! Localization on the host: the matcher registry, the core localizer run on owned images,
-//! generated evaluation queries in the test zone, metrics, reports, figures and operator
-//! pictures.
+//! Localization on the host: the matcher registry, the core's one fix
+//! ([`orbfix::fix::run`], matchers `fix`, `fix-ncc`, `cnn`) and the baseline matchers run
+//! through the core localizer on owned images, generated evaluation queries in the test
+//! zone, metrics, reports, figures and operator pictures.
 //!
-//! The pipeline of one query (`pipeline`): render the rover's four views at the truth,
-//! reproject them (core LUT) to a 200 x 200 top-down image at 0.25 m/px, render a 300 x 300 m
-//! orbital map region centred on a prior offset from the truth, then localize (core): the
-//! study's 441-window search and the coarse-to-fine dense fix.
+//! The pipeline of one query (`pipeline`): render the rover's four views (and depth) at the
+//! truth, render a 300 x 300 m orbital map region centred on a prior offset from the truth
+//! and build its map product, then run the fix (which reprojects, embeds, matches and
+//! refines in the core). Baselines get the core's top-down image of the same views and run
+//! the study's 441-window search and the coarse-to-fine dense localizer.
 
 pub mod figures;
 pub mod metrics;
 pub mod overlay;
 pub mod pipeline;
 pub mod run;
-pub mod window_refine;
 
 use anyhow::{bail, Context};
+use orbfix::fix::{FixConfig, RefineMode};
 use orbfix::geo::GeoRef;
 use orbfix::image::{ImageView, ImageViewMut};
 use orbfix::localize::{self, Fix, LocalizeConfig};
@@ -22,19 +24,34 @@ use orbfix::matcher::{distance_weights, l1::L1, l2::L2, ncc::Ncc, Grid, Matcher,
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-/// Names of the matchers reported, best first for `demo` (`ncc-hp2`: masked NCC after a
-/// 2 m masked high-pass; see `matcher_by_name` for the option grammar). The CNN matchers
-/// (`cnn`: shipped int8; `cnn-f32`: float checkpoint) plug in here behind the same
-/// [`Matcher`] trait and localize window-first ([`window_refine`]); `demo` keeps `ncc-hp2`
-/// because it is better same-sun on the range top-down (docs/matcher.md).
-pub const MATCHERS: &[&str] = &["ncc-hp2", "ncc", "ncc-dist", "l1", "l2"];
+/// Names of the matchers reported, best first for `demo`. `fix` is the flight core's one
+/// fix ([`orbfix::fix::run`], default [`FixConfig`]); `fix-ncc` the same with the NCC
+/// refinement always kept; `cnn` the same with only the CNN's sub-cell peak (the bare
+/// CNN). The others are baselines on the core's top-down image: masked NCC (`ncc-hp2`:
+/// after a 2 m masked high-pass; see [`matcher_by_name`] for the option grammar), L1, L2.
+pub const MATCHERS: &[&str] = &[
+    "fix", "fix-ncc", "cnn", "ncc-hp2", "ncc", "ncc-dist", "l1", "l2",
+];
 
 /// The matcher `demo` uses: the best one available.
 pub fn best_matcher() -> &'static str {
     MATCHERS[0]
 }
 
-/// A matcher with its host-side options.
+/// The fix configuration behind a fix matcher name (`fix`, `fix-ncc`, `cnn`), `None` for a
+/// baseline.
+pub fn fix_config_by_name(name: &str) -> Option<FixConfig> {
+    let mut cfg = FixConfig::default();
+    cfg.refine.mode = match name {
+        "fix" => RefineMode::Auto,
+        "fix-ncc" => RefineMode::Ncc,
+        "cnn" => RefineMode::Cnn,
+        _ => return None,
+    };
+    Some(cfg)
+}
+
+/// A baseline matcher with its host-side options.
 pub struct MatcherSpec {
     /// Name as given on the command line.
     pub name: String,
@@ -50,50 +67,23 @@ pub struct MatcherSpec {
     /// Equalize the top-down image's brightness per 1 m range ring first (the reprojection's
     /// `equalize_rings`).
     pub equalize_rings: bool,
-    /// Localize by window search + dense refinement of the best windows
-    /// ([`window_refine::localize_windows`]) instead of the core's coarse-to-fine path (the
-    /// CNNs, which need the full-resolution template).
-    pub window_first: bool,
 }
 
-/// Float checkpoint of `cnn-f32`: `$ORBFIX_CNN_F32` or this default.
-pub const DEFAULT_F32_CHECKPOINT: &str = "runs/matcher-dense/checkpoint.safetensors";
-
-/// Looks a matcher up by name: a base (`l1`, `l2`, `ncc`) followed by options, each
-/// `-dist` (1 / distance weights, full weight within 5 m), `-eq` (top-down brightness
+/// Looks a baseline matcher up by name: a base (`l1`, `l2`, `ncc`) followed by options,
+/// each `-dist` (1 / distance weights, full weight within 5 m), `-eq` (top-down brightness
 /// equalized per 1 m range ring, `orbfix::reproject::equalize_rings`), `-hpN` (high-pass, box radius N
 /// metres), `-rN` (use the top-down image within N metres of the rover only); e.g.
-/// `ncc-hp4-r20`. [`MATCHERS`] lists the ones reported.
+/// `ncc-hp4-r20`. The fix matchers are looked up with [`fix_config_by_name`].
 pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
-    let (base, rest) = match name.strip_prefix("cnn-f32") {
-        Some(rest) => ("cnn-f32", rest),
-        None => {
-            let b = name.split('-').next().unwrap_or("");
-            (b, &name[b.len()..])
-        }
-    };
+    let base = name.split('-').next().unwrap_or("");
+    let rest = &name[base.len()..];
     let parts = rest.split('-').filter(|p| !p.is_empty());
     let matcher: Box<dyn Matcher + Send + Sync> = match base {
-        "cnn-f32" => {
-            let path = std::env::var("ORBFIX_CNN_F32")
-                .unwrap_or_else(|_| DEFAULT_F32_CHECKPOINT.to_string());
-            Box::new(
-                crate::nn::float_matcher::FloatCnnMatcher::load(std::path::Path::new(&path))
-                    .with_context(|| {
-                        format!("matcher cnn-f32 needs a float checkpoint at {path} (set ORBFIX_CNN_F32 or run `orbfix train`)")
-                    })?,
-            )
-        }
         "l1" => Box::new(L1),
         "l2" => Box::new(L2),
         "ncc" => Box::new(Ncc::default()),
-        "cnn" => Box::new(orbfix::nn::matcher::CnnMatcher::shipped().map_err(|e| {
-            anyhow::anyhow!(
-                "the shipped CNN weights are invalid ({e:?}); regenerate weights/matcher-v1.ofw with `orbfix quantize`"
-            )
-        })?),
         _ => bail!(
-            "unknown matcher '{name}': choose one of {}, cnn, cnn-f32 (options: -dist, -eq, -hpN, -rN)",
+            "unknown matcher '{name}': choose one of {} (baseline options: -dist, -eq, -hpN, -rN)",
             MATCHERS.join(", ")
         ),
     };
@@ -104,7 +94,6 @@ pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
         highpass_m: None,
         max_range_m: None,
         equalize_rings: false,
-        window_first: base.starts_with("cnn"),
     };
     for p in parts {
         let num = |pre: &str| -> anyhow::Result<f32> {
@@ -143,7 +132,9 @@ pub fn parse_matchers(list: &str) -> anyhow::Result<Vec<String>> {
         bail!("no matcher given: choose from {}", MATCHERS.join(", "));
     }
     for n in &names {
-        matcher_by_name(n)?;
+        if fix_config_by_name(n).is_none() {
+            matcher_by_name(n)?;
+        }
     }
     Ok(names)
 }
@@ -199,11 +190,8 @@ pub struct Localization {
     pub dense_s: f64,
     /// Wall time of the window search, seconds.
     pub windows_s: f64,
-    /// Further positions the same matcher scored at full resolution besides the coarse grid
-    /// (the CNNs' refinement grids): `(col, row)` top-left in map pixels and score. They
-    /// count in [`window_cell_scores`]; empty for the core's coarse-to-fine path, whose fine
-    /// scores are on another scale than its coarse ones.
-    pub fine_samples: Vec<(usize, usize, f32)>,
+    /// The fix's report, for the fix matchers.
+    pub fix_report: Option<orbfix::fix::FixReport>,
 }
 
 /// The weights a matcher sees for a top-down mask.
@@ -326,9 +314,6 @@ pub fn localize_top_down(
             top.n
         );
     }
-    if spec.window_first {
-        return window_refine::localize_windows(spec, top, map, prior, stride_px);
-    }
     let p = prepare(spec, top, map)?;
     let t = ImageView::new(&p.top, top.n, top.n)
         .map_err(|e| anyhow::anyhow!("bad top-down image: {e:?}"))?;
@@ -381,45 +366,116 @@ pub fn localize_top_down(
         window_ops,
         dense_s,
         windows_s,
-        fine_samples: Vec::new(),
+        fix_report: None,
     })
 }
 
 /// Window scores from the dense coarse response: each of the study's windows gets the best
 /// coarse score of the rover positions in its cell (within half a stride of the window's
-/// centre), so a window 6 m off a sharp texture is not penalised for its offset; positions
-/// of [`Localization::fine_samples`] count too. Row-major over `loc.window_grid`.
+/// centre), so a window 6 m off a sharp texture is not penalised for its offset. Row-major
+/// over `loc.window_grid`.
 pub fn window_cell_scores(loc: &Localization) -> Vec<f32> {
-    let wg = loc.window_grid;
-    let cg = loc.fix.coarse_grid;
-    let half = wg.step as i64 / 2;
+    cell_scores(&loc.coarse_response, &loc.fix.coarse_grid, &loc.window_grid)
+}
+
+/// [`window_cell_scores`] of a response over grid `cg` for the windows of `wg`.
+pub fn cell_scores(response: &[f32], cg: &Grid, wg: &Grid) -> Vec<f32> {
+    let half = wg.step() as i64 / 2;
     let cell_of = |x: i64, y: i64| -> Option<usize> {
         // Cell (c, r) holds positions in [c step - half, c step + half).
-        let c = (x + half).div_euclid(wg.step as i64);
-        let r = (y + half).div_euclid(wg.step as i64);
-        (c >= 0 && r >= 0 && (c as usize) < wg.cols && (r as usize) < wg.rows)
-            .then(|| r as usize * wg.cols + c as usize)
+        let c = (x + half).div_euclid(wg.step() as i64);
+        let r = (y + half).div_euclid(wg.step() as i64);
+        (c >= 0 && r >= 0 && (c as usize) < wg.cols() && (r as usize) < wg.rows())
+            .then(|| r as usize * wg.cols() + c as usize)
     };
     let mut best = vec![f32::NEG_INFINITY; wg.len()];
-    let samples = (0..cg.len())
-        .map(|i| {
-            (
-                (i % cg.cols * cg.step) as i64,
-                (i / cg.cols * cg.step) as i64,
-                loc.coarse_response[i],
-            )
-        })
-        .chain(
-            loc.fine_samples
-                .iter()
-                .map(|&(c, r, s)| (c as i64, r as i64, s)),
+    for (i, &s) in response.iter().enumerate().take(cg.len()) {
+        let (x, y) = (
+            (i % cg.cols() * cg.step()) as i64,
+            (i / cg.cols() * cg.step()) as i64,
         );
-    for (x, y, s) in samples {
         if let Some(k) = cell_of(x, y) {
             best[k] = best[k].max(s);
         }
     }
     best
+}
+
+/// Runs the core's fix on an observation against a map product and describes it as a
+/// [`Localization`] (the study's windows ranked by their cells' best coarse scores).
+pub fn localize_fix(
+    runner: &crate::fix::FixRunner,
+    obs: &pipeline::Observation,
+    map: &MapRegion,
+    product: &[u8],
+    prior: (f64, f64),
+    stride_px: usize,
+) -> anyhow::Result<(Localization, crate::fix::FixOutcome)> {
+    let mut pose = obs.pose;
+    pose.x_m = prior.0 as f32;
+    pose.y_m = prior.1 as f32;
+    let out = runner.run(
+        &obs.params,
+        &pose,
+        obs.frames()?,
+        obs.depths.as_ref(),
+        product,
+    )?;
+    let n = runner.cfg.grid.n;
+    let (cols, rows, step) = out.grid;
+    let cg = Grid::new(n, n, map.width, map.height, step)
+        .map_err(|e| anyhow::anyhow!("window grid: {e:?}"))?;
+    anyhow::ensure!(
+        cg.len() == cols * rows,
+        "map product grid differs from the map"
+    );
+    let wg = Grid::new(n, n, map.width, map.height, stride_px)
+        .map_err(|e| anyhow::anyhow!("window grid: {e:?}"))?;
+    let r = &out.report;
+    let windows = r.windows as usize;
+    let coarse_response: Vec<f32> = if windows > 0 {
+        out.response[..windows]
+            .iter()
+            .map(|&v| v as f32 / 32768.0)
+            .collect()
+    } else {
+        vec![-1.0; cg.len()]
+    };
+    let window_scores = cell_scores(&coarse_response, &cg, &wg);
+    let ops = OpCounts {
+        macs: r.ops.embed_macs + r.ops.match_elements,
+        windows: r.windows as u64,
+        downsample_px: 0,
+    };
+    let fix = Fix {
+        x_m: r.x_m,
+        y_m: r.y_m,
+        score: r.score,
+        confidence: r.confidence,
+        peak_score: r.cnn_best_q15 as f32 / 32768.0,
+        second_score: r.candidates.get(1).map_or(r.score, |c| c.score),
+        on_border: r.status == orbfix::fix::FixStatus::OnBorder,
+        candidates: r.candidates.clone(),
+        coarse_grid: cg,
+        ops_coarse: ops,
+        ops_fine: OpCounts {
+            macs: r.ops.refine_macs,
+            ..OpCounts::default()
+        },
+    };
+    Ok((
+        Localization {
+            fix,
+            coarse_response,
+            window_scores,
+            window_grid: wg,
+            window_ops: OpCounts::default(),
+            dense_s: out.seconds,
+            windows_s: 0.0,
+            fix_report: Some(out.report.clone()),
+        },
+        out,
+    ))
 }
 
 /// A sentence for a core localization error.

@@ -55,21 +55,55 @@ impl Default for PipelineOptions {
     }
 }
 
-/// Renders the four views at a rover stop and reprojects them to a top-down image.
-pub fn observe(
+/// What the rover sees at a stop: its four frames, their depth images when the pipeline
+/// has depth (the range path), the rig and the pose prior's attitude.
+#[derive(Clone, Debug)]
+pub struct Observation {
+    /// Frames, front, right, rear, left.
+    pub views: [image::GrayImage; 4],
+    /// Depth images (`u16` millimetres along the optical axis, 0 = none), range path only.
+    pub depths: Option<[Vec<u16>; 4]>,
+    /// The rover's true pose (position, ground height, heading).
+    pub pose: orbfix::camera::RoverPose,
+    /// The camera rig.
+    pub params: orbfix::camera::CameraParams,
+}
+
+impl Observation {
+    /// The frames as core views.
+    pub fn frames(&self) -> anyhow::Result<[Option<ImageView<'_>>; 4]> {
+        let mut frames: [Option<ImageView<'_>>; 4] = [None; 4];
+        for (f, v) in frames.iter_mut().zip(&self.views) {
+            *f = Some(
+                ImageView::new(v.as_raw(), v.width() as usize, v.height() as usize)
+                    .map_err(|e| anyhow::anyhow!("bad view image: {e:?}"))?,
+            );
+        }
+        Ok(frames)
+    }
+}
+
+/// Renders the four views at a rover stop (and their depth images on the range path).
+pub fn observe_raw(
     world: &World,
     x_m: f64,
     y_m: f64,
     heading_deg: f64,
     sun: Sun,
     opts: &PipelineOptions,
-) -> anyhow::Result<TopDown> {
+) -> anyhow::Result<Observation> {
     let pose = render::ground_pose(world, x_m, y_m, heading_deg);
+    let params = opts.render.camera_params();
     match opts.reprojection {
         Reprojection::Lut => {
             let views = render::render_views(world, &pose, sun, &opts.render)
                 .with_context(|| format!("rendering the views at ({x_m:.1}, {y_m:.1}) m"))?;
-            reproject_views(&views, &opts.render, &pose, &opts.grid)
+            Ok(Observation {
+                views,
+                depths: None,
+                pose,
+                params,
+            })
         }
         Reprojection::Range => {
             let set = render::render_views_with_range(world, &pose, sun, &opts.render)
@@ -79,9 +113,44 @@ pub fn observe(
                 seed: n.seed ^ x_m.to_bits().rotate_left(17) ^ y_m.to_bits(),
                 ..n
             });
-            reproject_views_range(&set, &opts.render, &pose, &opts.grid, &opts.range, noise)
+            let depths = depth_images(&set, noise)?;
+            Ok(Observation {
+                views: set.views,
+                depths: Some(depths),
+                pose,
+                params,
+            })
         }
     }
+}
+
+/// The core's top-down image of an observation (LUT on flat ground, or range with its
+/// depth images), for the baseline matchers.
+pub fn top_down(obs: &Observation, opts: &PipelineOptions) -> anyhow::Result<TopDown> {
+    match &obs.depths {
+        None => reproject_views(&obs.views, &opts.render, &obs.pose, &opts.grid),
+        Some(d) => reproject_depths_with(
+            &obs.views,
+            d,
+            &opts.render,
+            &obs.pose,
+            &opts.grid,
+            &opts.range,
+        )
+        .map(|(t, _)| t),
+    }
+}
+
+/// Renders the four views at a rover stop and reprojects them to a top-down image.
+pub fn observe(
+    world: &World,
+    x_m: f64,
+    y_m: f64,
+    heading_deg: f64,
+    sun: Sun,
+    opts: &PipelineOptions,
+) -> anyhow::Result<TopDown> {
+    top_down(&observe_raw(world, x_m, y_m, heading_deg, sun, opts)?, opts)
 }
 
 /// Reprojects four views with depth (the renderer's range images as `u16` millimetre
@@ -365,7 +434,18 @@ pub fn render_query(
     q: &Query,
     opts: &PipelineOptions,
 ) -> anyhow::Result<(TopDown, MapRegion)> {
-    let top = observe(world, q.x_m, q.y_m, q.heading_deg, q.sun_rover, opts)?;
+    let (_, top, map) = render_query_full(world, q, opts)?;
+    Ok((top, map))
+}
+
+/// Renders a query's observation, its top-down image and its map region.
+pub fn render_query_full(
+    world: &World,
+    q: &Query,
+    opts: &PipelineOptions,
+) -> anyhow::Result<(Observation, TopDown, MapRegion)> {
+    let obs = observe_raw(world, q.x_m, q.y_m, q.heading_deg, q.sun_rover, opts)?;
+    let top = top_down(&obs, opts)?;
     let map = map_region(
         world,
         q.prior_x_m,
@@ -375,7 +455,7 @@ pub fn render_query(
         q.sun_map,
         &opts.render,
     )?;
-    Ok((top, map))
+    Ok((obs, top, map))
 }
 
 /// The top-down image of a dataset location (its views reprojected with the core LUT at the

@@ -2,8 +2,12 @@
 //! sharing the renders, into one report per matcher.
 
 use super::metrics::{pair_stats, quantile, recall_at, PairStats};
-use super::pipeline::{make_queries, render_query, Condition, PipelineOptions, Query};
-use super::{localize_top_down, matcher_by_name, Localization, MapRegion, TopDown};
+use super::pipeline::{make_queries, render_query_full, Condition, PipelineOptions, Query};
+use super::{
+    fix_config_by_name, localize_fix, localize_top_down, matcher_by_name, Localization, MapRegion,
+    TopDown,
+};
+use crate::fix::{build_map_product, FixRunner, MapProductOptions};
 use crate::world::World;
 use anyhow::Context;
 use orbfix::image::ImageView;
@@ -37,6 +41,8 @@ pub struct EvalConfig {
     /// Diagnostic: a world with zero relief and the same albedo (isolates photometry and
     /// relief from geometry).
     pub flat_world: bool,
+    /// The weight file (`.ofw`) of the CNN, for the fix matchers and their map products.
+    pub weights: Vec<u8>,
 }
 
 /// The result of one query for one matcher.
@@ -75,6 +81,34 @@ pub struct QueryResult {
     pub windows_s: f64,
     /// Per-pixel accumulates (MACs) of the coarse pass, the fine pass and the window search.
     pub macs: [u64; 3],
+    /// The fix's status (`ok`, `ambiguous`, `no-data`, `on-border`, `self-check-failed`);
+    /// fix matchers only.
+    pub status: Option<String>,
+    /// Which stage produced the fix (`ncc`, `cnn`, `none`); fix matchers only.
+    pub path: Option<String>,
+    /// The fix's stated error bound, metres; fix matchers only.
+    pub error_bound_m: Option<f64>,
+}
+
+/// What a fix matcher's users read besides the errors.
+#[derive(Clone, Debug, Serialize)]
+pub struct FixStats {
+    /// Share of stops whose fix has status ok.
+    pub accepted_share: f64,
+    /// Stops whose fix is ok but more than 5 m off (wrong but confident).
+    pub wrong_confident: usize,
+    /// The same as a share of all stops.
+    pub wrong_confident_share: f64,
+    /// Share of ok fixes whose error is within their stated bound.
+    pub bound_coverage: f64,
+    /// Share of fixes within 1 m among the ok ones.
+    pub accepted_within_1m: f64,
+    /// Share of fixes produced by each path.
+    pub path_share: BTreeMap<String, f64>,
+    /// Count of each status.
+    pub status_count: BTreeMap<String, usize>,
+    /// The exact configuration of the core's fix.
+    pub config: String,
 }
 
 /// The report of one matcher under one condition.
@@ -118,6 +152,8 @@ pub struct EvalReport {
     pub ops: BTreeMap<String, f64>,
     /// Settings.
     pub settings: serde_json::Value,
+    /// Fix matchers: acceptance, wrong-but-confident fixes, bound coverage, paths.
+    pub fix: Option<FixStats>,
     /// Every query.
     pub per_query: Vec<QueryResult>,
 }
@@ -173,7 +209,7 @@ fn run_query(
     cfg: &EvalConfig,
     q: &Query,
 ) -> anyhow::Result<(Vec<QueryResult>, Option<Example>)> {
-    let (top, map) = render_query(world, q, &cfg.pipeline)?;
+    let (obs, top, map) = render_query_full(world, q, &cfg.pipeline)?;
     let coverage = top.mask.iter().filter(|&&m| m != 0).count() as f64 / top.mask.len() as f64;
     let mut results = Vec::new();
     let mut locs = Vec::new();
@@ -188,7 +224,7 @@ fn run_query(
         .round()
         .clamp(0.0, (map.height - n) as f64) as usize;
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed.wrapping_mul(1000).wrapping_add(q.id as u64));
-    let away = 50.0 / map.geo.m_per_px as f64;
+    let away = 50.0 / map.geo.m_per_px() as f64;
     let (ncol, nrow) = loop {
         let c = rng.random_range(0..=map.width - n);
         let r = rng.random_range(0..=map.height - n);
@@ -197,7 +233,67 @@ fn run_query(
             break (c, r);
         }
     };
+    let product = if cfg.matchers.iter().any(|m| fix_config_by_name(m).is_some()) {
+        let opts = MapProductOptions {
+            window_px: cfg.pipeline.grid.n,
+            sun_deg: Some((q.sun_map.elevation_deg as f32, q.sun_map.azimuth_deg as f32)),
+            ..MapProductOptions::default()
+        };
+        Some(build_map_product(&map, &cfg.weights, &opts)?)
+    } else {
+        None
+    };
     for name in &cfg.matchers {
+        if let (Some(mut fcfg), Some(product)) = (fix_config_by_name(name), product.as_deref()) {
+            fcfg.grid = cfg.pipeline.grid;
+            fcfg.range = cfg.pipeline.range;
+            let runner = FixRunner {
+                weights: cfg.weights.clone(),
+                cfg: fcfg,
+            };
+            let (loc, out) = localize_fix(
+                &runner,
+                &obs,
+                &map,
+                product,
+                (q.prior_x_m, q.prior_y_m),
+                cfg.stride_px,
+            )
+            .with_context(|| format!("query {} with {name}", q.id))?;
+            let tw = nearest_window(&loc.window_grid, &map.geo, n, n, q.x_m as f32, q.y_m as f32);
+            let rank = rank_of(&loc.window_scores, tw).unwrap_or(usize::MAX);
+            let r = &out.report;
+            let fx = (r.x_m as f64, r.y_m as f64);
+            let (cols, rows, step) = out.grid;
+            let at = |col: usize, row: usize| -> f64 {
+                let c = ((col as f64 / step as f64).round() as usize).min(cols - 1);
+                let rr = ((row as f64 / step as f64).round() as usize).min(rows - 1);
+                loc.coarse_response[rr * cols + c] as f64
+            };
+            results.push(QueryResult {
+                id: q.id,
+                truth_m: (q.x_m, q.y_m),
+                prior_m: (q.prior_x_m, q.prior_y_m),
+                fix_m: fx,
+                error_m: ((fx.0 - q.x_m).powi(2) + (fx.1 - q.y_m).powi(2)).sqrt(),
+                true_window_rank: rank,
+                true_window: tw,
+                true_cell_rank: rank,
+                confidence: r.confidence as f64,
+                on_border: r.status == orbfix::fix::FixStatus::OnBorder,
+                match_score: at(tcol, trow),
+                nonmatch_score: at(ncol, nrow),
+                coverage,
+                dense_s: out.seconds,
+                windows_s: 0.0,
+                macs: [loc.fix.ops_coarse.macs, r.ops.refine_macs, 0],
+                status: Some(r.status.name().to_string()),
+                path: Some(r.path.name().to_string()),
+                error_bound_m: Some(r.error_bound_m as f64),
+            });
+            locs.push(loc);
+            continue;
+        }
         let spec = matcher_by_name(name)?;
         let loc = localize_top_down(
             &spec,
@@ -234,6 +330,9 @@ fn run_query(
                 loc.fix.ops_fine.macs,
                 loc.window_ops.macs,
             ],
+            status: None,
+            path: None,
+            error_bound_m: None,
         });
         locs.push(loc);
     }
@@ -250,7 +349,9 @@ fn run_query(
 pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> {
     anyhow::ensure!(cfg.queries > 0, "--queries must be at least 1");
     for m in &cfg.matchers {
-        matcher_by_name(m)?;
+        if fix_config_by_name(m).is_none() {
+            matcher_by_name(m)?;
+        }
     }
     let world = if cfg.flat_world {
         World::flat(cfg.seed)
@@ -370,8 +471,50 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
             mean_windows_s: mean(rs.iter().map(|r| r.windows_s).collect()),
             ops,
             settings: settings.clone(),
+            fix: fix_config_by_name(name).map(|mut c| {
+                c.grid = cfg.pipeline.grid;
+                c.range = cfg.pipeline.range;
+                fix_stats(rs, &c)
+            }),
             per_query: rs.clone(),
         });
     }
     Ok(EvalOutput { reports, examples })
+}
+
+/// Acceptance, wrong-but-confident fixes, bound coverage and paths of a fix matcher.
+fn fix_stats(rs: &[QueryResult], cfg: &orbfix::fix::FixConfig) -> FixStats {
+    let n = rs.len().max(1) as f64;
+    let ok: Vec<&QueryResult> = rs
+        .iter()
+        .filter(|r| r.status.as_deref() == Some("ok"))
+        .collect();
+    let share_ok = |f: &dyn Fn(&QueryResult) -> bool| {
+        if ok.is_empty() {
+            f64::NAN
+        } else {
+            ok.iter().filter(|r| f(r)).count() as f64 / ok.len() as f64
+        }
+    };
+    let wrong = ok.iter().filter(|r| r.error_m > 5.0).count();
+    let mut path_share = BTreeMap::new();
+    let mut status_count = BTreeMap::new();
+    for r in rs {
+        *path_share
+            .entry(r.path.clone().unwrap_or_default())
+            .or_insert(0.0) += 1.0 / n;
+        *status_count
+            .entry(r.status.clone().unwrap_or_default())
+            .or_insert(0) += 1;
+    }
+    FixStats {
+        accepted_share: ok.len() as f64 / n,
+        wrong_confident: wrong,
+        wrong_confident_share: wrong as f64 / n,
+        bound_coverage: share_ok(&|r| r.error_m <= r.error_bound_m.unwrap_or(f64::INFINITY)),
+        accepted_within_1m: share_ok(&|r| r.error_m <= 1.0),
+        path_share,
+        status_count,
+        config: format!("{cfg:?}"),
+    }
 }

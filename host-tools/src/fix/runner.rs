@@ -1,0 +1,121 @@
+//! Runs the core's fix on owned images with owned scratch.
+
+use orbfix::camera::{CameraParams, RoverPose};
+use orbfix::fix::{self, Depth, FixConfig, FixInputs, FixReport, FixScratch, NoClock};
+use orbfix::image::ImageView;
+use orbfix::map_product::{CrcCheck, MapProduct};
+use orbfix::nn::input::INPUT_LEN;
+use orbfix::nn::model::{Arena, EMBED_LEN};
+use orbfix::reproject::DepthView;
+use std::time::Instant;
+
+/// Everything one fix produced, with the images it was made from.
+#[derive(Clone, Debug)]
+pub struct FixOutcome {
+    /// The core's report.
+    pub report: FixReport,
+    /// The top-down image (`n * n`).
+    pub top: Vec<u8>,
+    /// Its mask.
+    pub mask: Vec<u8>,
+    /// The coarse response (Q15 cosines over the map product's window grid).
+    pub response: Vec<i32>,
+    /// Window grid `(cols, rows, step_px)` of the response.
+    pub grid: (usize, usize, usize),
+    /// Digest of every output ([`fix::output_digest`]).
+    pub digest: u32,
+    /// Wall time of the fix, seconds (one core).
+    pub seconds: f64,
+}
+
+/// A fix configuration with its weights: runs [`orbfix::fix::run`].
+#[derive(Clone, Debug)]
+pub struct FixRunner {
+    /// The weight file's bytes.
+    pub weights: Vec<u8>,
+    /// The configuration (named in every report).
+    pub cfg: FixConfig,
+}
+
+impl FixRunner {
+    /// The shipped weights with `cfg`.
+    pub fn shipped(cfg: FixConfig) -> Self {
+        Self {
+            weights: orbfix::nn::model::SHIPPED_WEIGHTS.to_vec(),
+            cfg,
+        }
+    }
+
+    /// Runs the fix on `frames` (front, right, rear, left; `None` = missing) with optional
+    /// `depths` (same order; `None` = flat ground) against `product`.
+    pub fn run(
+        &self,
+        params: &CameraParams,
+        pose: &RoverPose,
+        frames: [Option<ImageView<'_>>; 4],
+        depths: Option<&[Vec<u16>; 4]>,
+        product: &[u8],
+    ) -> anyhow::Result<FixOutcome> {
+        let meta = *MapProduct::parse(product, CrcCheck::Skip)
+            .map_err(|e| anyhow::anyhow!("{e}"))?
+            .meta();
+        let sizes = fix::fix_buffer_sizes(&self.cfg, &meta).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let (w, h) = (params.width_px as usize, params.height_px as usize);
+        let mut dviews: [Option<DepthView<'_>>; 4] = [None; 4];
+        if let Some(ds) = depths {
+            for (dv, d) in dviews.iter_mut().zip(ds) {
+                *dv = Some(
+                    DepthView::new(d, w, h)
+                        .map_err(|e| anyhow::anyhow!("depth image is not {w} x {h}: {e:?}"))?,
+                );
+            }
+        }
+        let inputs = FixInputs {
+            params: *params,
+            pose: *pose,
+            frames,
+            depth: match depths {
+                Some(_) => Depth::Images(dviews),
+                None => Depth::Flat,
+            },
+            map_product: product,
+            weights: &self.weights,
+        };
+        let mut top = vec![0u8; sizes.top];
+        let mut mask = vec![0u8; sizes.mask];
+        let mut work = vec![0u32; sizes.work_words];
+        let mut response = vec![0i32; sizes.response];
+        let mut floats = vec![0f32; sizes.refine_floats];
+        let mut arena = Box::new(Arena::new());
+        let mut input = Box::new([0i8; INPUT_LEN]);
+        let mut emb = Box::new([0i8; EMBED_LEN]);
+        let mut scratch = FixScratch {
+            top: &mut top,
+            mask: &mut mask,
+            work: &mut work,
+            response: &mut response,
+            refine_floats: &mut floats,
+            nn_arena: &mut arena,
+            nn_input: &mut input,
+            nn_embedding: &mut emb,
+        };
+        let t0 = Instant::now();
+        let report = fix::run(&inputs, &self.cfg, &mut scratch, &mut NoClock)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let seconds = t0.elapsed().as_secs_f64();
+        let digest = fix::output_digest(&report, &scratch, self.cfg.grid.n);
+        let l = MapProduct::parse(product, CrcCheck::Skip)
+            .map_err(|e| anyhow::anyhow!("{e}"))?
+            .layout()
+            .to_owned();
+        Ok(FixOutcome {
+            report,
+            top,
+            mask,
+            response,
+            grid: (l.cols, l.rows, meta.step_px),
+            digest,
+            seconds,
+        })
+    }
+}

@@ -1,0 +1,202 @@
+//! Settings of the fix ([`FixConfig`]): one value names the exact configuration an accuracy
+//! or budget figure was produced with.
+
+use super::FixError;
+use crate::localize::MAX_CANDIDATES;
+use crate::reproject::{GridSpec, RangeOptions};
+
+/// How the position inside the best coarse cells is found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RefineMode {
+    /// Masked NCC refinement; kept when its score reaches [`RefineConfig::min_ncc`] inside
+    /// the searched reach, otherwise the CNN's sub-cell peak (the default).
+    Auto,
+    /// Always the masked NCC refinement of the best CNN cell.
+    Ncc,
+    /// Only the CNN response's sub-cell peak (parabola on the window grid); no NCC.
+    Cnn,
+}
+
+impl RefineMode {
+    /// Name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            RefineMode::Auto => "auto",
+            RefineMode::Ncc => "ncc",
+            RefineMode::Cnn => "cnn",
+        }
+    }
+}
+
+/// One level of the NCC refinement: the template and map block-averaged by `factor`,
+/// positions searched every level pixel within `reach_px` level pixels of the previous
+/// level's best (of the CNN window for the first level).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RefineLevel {
+    /// Block-averaging factor (top-down pixels per level pixel).
+    pub factor: usize,
+    /// Search reach, level pixels.
+    pub reach_px: usize,
+}
+
+/// Settings of the refinement stage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RefineConfig {
+    /// Which refinement runs.
+    pub mode: RefineMode,
+    /// Best coarse peaks (after suppression) refined, 1..=[`MAX_CANDIDATES`].
+    pub peaks: usize,
+    /// Box radius of the masked high-pass applied to the top-down image and the map before
+    /// the NCC, metres (MARSAUTOLOCO-style local mean removal).
+    pub highpass_m: f32,
+    /// The two NCC levels, coarse then fine (the fine one's factor divides the coarse one's).
+    pub levels: [RefineLevel; 2],
+    /// Smallest NCC score for which [`RefineMode::Auto`] keeps the NCC position.
+    pub min_ncc: f32,
+}
+
+/// Stated error bounds, metres: what the report's `error_bound_m` says for a fix of each
+/// path (calibrated so that at least 95 % of ok fixes lie within them; `docs/fix.md`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ErrorBounds {
+    /// A fix refined by the NCC.
+    pub ncc_m: f32,
+    /// A fix from the CNN's sub-cell peak.
+    pub cnn_m: f32,
+}
+
+/// The self-checks of a flight computer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SelfCheck {
+    /// Recompute the map product's CRC-32 before use (the weight file's is always checked:
+    /// 64 KiB). About 10 instructions per byte: 9.6 MB for a 300 m map.
+    pub verify_map_crc: bool,
+    /// Embed the top-down image twice and compare the embeddings' digests; a mismatch (a
+    /// damaged weight, activation or scratch bit) is the status "self-check failed".
+    pub redundant_embed: bool,
+}
+
+/// Every setting of the fix.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FixConfig {
+    /// The top-down grid (200 x 200 cells of 0.25 m; must match the map product's window side
+    /// and resolution).
+    pub grid: GridSpec,
+    /// Settings of the range (depth) reprojection.
+    pub range: RangeOptions,
+    /// Minimum valid share of the top-down image, per mille; below it the fix has no data.
+    pub min_coverage_permille: u32,
+    /// Non-maximum suppression radius between coarse peaks, metres (the study's 12.5 m
+    /// stride).
+    pub nms_radius_m: f32,
+    /// The refinement.
+    pub refine: RefineConfig,
+    /// Confidence below which a fix is reported ambiguous.
+    pub accept_confidence: f32,
+    /// Stated error bounds.
+    pub bounds: ErrorBounds,
+    /// Self-checks.
+    pub self_check: SelfCheck,
+}
+
+impl Default for FixConfig {
+    fn default() -> Self {
+        Self {
+            grid: GridSpec::default(),
+            range: RangeOptions::default(),
+            min_coverage_permille: 50,
+            nms_radius_m: 12.5,
+            refine: RefineConfig {
+                mode: RefineMode::Auto,
+                peaks: 3,
+                highpass_m: 2.0,
+                levels: [
+                    RefineLevel {
+                        factor: 4,
+                        reach_px: 5,
+                    },
+                    RefineLevel {
+                        factor: 2,
+                        reach_px: 2,
+                    },
+                ],
+                min_ncc: 0.3,
+            },
+            accept_confidence: 0.15,
+            bounds: ErrorBounds {
+                ncc_m: 0.5,
+                cnn_m: 2.0,
+            },
+            self_check: SelfCheck {
+                verify_map_crc: false,
+                redundant_embed: false,
+            },
+        }
+    }
+}
+
+impl FixConfig {
+    /// Checks every setting; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), FixError> {
+        self.grid.validate()?;
+        let bad = |field| Err(FixError::BadConfig { field });
+        let r = &self.refine;
+        if r.peaks == 0 || r.peaks > MAX_CANDIDATES {
+            return bad("refine.peaks");
+        }
+        if !(r.highpass_m.is_finite() && r.highpass_m > 0.0 && r.highpass_m <= 25.0) {
+            return bad("refine.highpass_m");
+        }
+        let [a, b] = r.levels;
+        let n = self.grid.n;
+        if a.factor == 0 || b.factor == 0 || a.factor % b.factor != 0 || a.factor > 16 {
+            return bad("refine.levels.factor");
+        }
+        if n % a.factor != 0 || n / a.factor < 8 {
+            return bad("refine.levels.factor");
+        }
+        if a.reach_px == 0 || a.reach_px > 32 || b.reach_px == 0 || b.reach_px > 32 {
+            return bad("refine.levels.reach_px");
+        }
+        if !(r.min_ncc.is_finite() && (-1.0..=1.0).contains(&r.min_ncc)) {
+            return bad("refine.min_ncc");
+        }
+        if !(self.nms_radius_m.is_finite() && self.nms_radius_m >= 0.0) {
+            return bad("nms_radius_m");
+        }
+        if self.min_coverage_permille > 1000 {
+            return bad("min_coverage_permille");
+        }
+        if !(self.accept_confidence.is_finite() && (0.0..=1.0).contains(&self.accept_confidence)) {
+            return bad("accept_confidence");
+        }
+        let ok_bound = |v: f32| v.is_finite() && v > 0.0;
+        if !(ok_bound(self.bounds.ncc_m) && ok_bound(self.bounds.cnn_m)) {
+            return bad("bounds");
+        }
+        Ok(())
+    }
+
+    /// Map pixels around a coarse window the refinement reads on each side (the reach of
+    /// both levels plus the high-pass box).
+    pub fn refine_margin_px(&self) -> usize {
+        let [a, b] = self.refine.levels;
+        a.reach_px * a.factor + b.reach_px * b.factor + a.factor + self.highpass_radius_px()
+    }
+
+    /// Box radius of the high-pass, top-down pixels (at least 1).
+    pub fn highpass_radius_px(&self) -> usize {
+        let r = self.refine.highpass_m / self.grid.m_per_px;
+        if r.is_finite() && r >= 1.0 {
+            (r + 0.5) as usize
+        } else {
+            1
+        }
+    }
+}

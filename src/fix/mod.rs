@@ -1,0 +1,436 @@
+//! The fix: one function, [`run`], from the rover's four frames (and depth, when it has
+//! it) and the map product to a position with a stated error bound and a confidence.
+//! This is the code that flies, that `orbfix eval` and `orbfix demo` evaluate and that
+//! `orbfix budget` times on the Cortex-M7; every stage lives here once.
+//!
+//! Stages ([`Stage`], timed through a [`StageClock`]):
+//! 1. **reprojection** (`lut_build` + `reproject`): the four frames into a north-up
+//!    `n x n` top-down image and mask around the prior, with depth when the rover has it
+//!    ([`Depth::Images`]: [`crate::reproject::reproject_range`], relief-faithful), else on
+//!    flat ground through the integer lookup table built band by band
+//!    ([`crate::reproject::Lut::build_rows`], [`LUT_BAND_ROWS`] rows per band);
+//! 2. **`nn_embed`**: the CNN's 64 x 64 int8 input ([`crate::nn::input::prepare_input`])
+//!    and its embedding with the given weights (CRC-checked first);
+//! 3. **`nn_match`**: Q15 cosine against every window record of the map product (50 m
+//!    windows every 4 m: 3969 over 300 m), the coarse response;
+//! 4. **`refine`**: the best [`RefineConfig::peaks`] coarse peaks after non-maximum
+//!    suppression ([`FixConfig::nms_radius_m`]), each refined by masked, high-passed NCC in
+//!    two levels ([`refine`]) with a sub-pixel peak; [`RefineMode::Auto`] keeps the best NCC
+//!    position when its score reaches [`RefineConfig::min_ncc`] inside the reach, else the
+//!    CNN's sub-cell peak (a parabola on the coarse response). The report names the path.
+//!
+//! Confidence (one definition, [`coarse::confidence`]): `(s1 - s2) / (s1 - mean)` on the
+//! coarse response, `s1` the chosen window's score, `s2` the best score farther than the
+//! suppression radius. Status: no data (too little of the top-down image, or nothing the
+//! CNN can embed), self-check failed, on border (the chosen window touches the map's edge:
+//! the truth may lie outside), ambiguous (confidence below
+//! [`FixConfig::accept_confidence`]), else ok. The error bound is the calibrated bound of
+//! the path that produced the fix ([`ErrorBounds`]).
+
+pub mod coarse;
+mod config;
+mod digest;
+pub mod refine;
+mod report;
+mod scratch;
+mod stage;
+
+pub use config::{ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck};
+pub use digest::{fnv1a, fnv1a_start, output_digest};
+pub use report::{FixError, FixPath, FixReport, FixStatus, ReprojectionSummary, StageOps};
+pub use scratch::{fix_buffer_sizes, FixBufferSizes, FixScratch, RefineLayout, LUT_BAND_ROWS};
+pub use stage::{NoClock, Stage, StageClock};
+
+use crate::camera::{CameraParams, RoverPose};
+use crate::image::ImageView;
+use crate::localize::{Candidate, MAX_CANDIDATES};
+use crate::map_product::{CrcCheck, MapProduct};
+use crate::matcher::OpCounts;
+use crate::nn::input::prepare_input;
+use crate::nn::model::{embedding_macs, SiameseNet, EMBED_LEN};
+use crate::nn::weights::crc32;
+use crate::nn::NnError;
+use crate::reproject::{
+    classify_frame, reproject_range, ApplyReport, Cell, DepthView, FrameStatus, Lut, Tap,
+};
+
+/// How the top-down image gets its geometry.
+#[derive(Clone, Copy, Debug)]
+pub enum Depth<'a> {
+    /// No depth: flat ground under the rover (the lookup-table path).
+    Flat,
+    /// Depth images (`u16`, [`crate::reproject::RangeOptions::depth_scale_m`] per unit, 0 =
+    /// no depth), one per frame, e.g. from an external stereo engine.
+    Images([Option<DepthView<'a>>; 4]),
+}
+
+/// Everything the fix reads. Frames, depth, the map product and the weights are borrowed
+/// (external memory on the target).
+#[derive(Clone, Copy, Debug)]
+pub struct FixInputs<'a> {
+    /// The camera rig.
+    pub params: CameraParams,
+    /// Pose prior: last known position (metres) and the known heading (degrees clockwise
+    /// from north).
+    pub pose: RoverPose,
+    /// Frames in rig order (front, right, rear, left); `None` for a missing camera.
+    pub frames: [Option<ImageView<'a>>; 4],
+    /// Depth of the frames.
+    pub depth: Depth<'a>,
+    /// The map product's bytes ([`crate::map_product`]).
+    pub map_product: &'a [u8],
+    /// The weight file's bytes (`.ofw`, [`crate::nn::weights`]).
+    pub weights: &'a [u8],
+}
+
+/// Runs the whole fix. See the module docs for the stages. Errors are for inputs the fix
+/// cannot run on (sizes, settings, damaged files, short scratch); a fix that runs but
+/// finds nothing usable is an `Ok` report with status [`FixStatus::NoData`].
+pub fn run<C: StageClock>(
+    inputs: &FixInputs<'_>,
+    cfg: &FixConfig,
+    scratch: &mut FixScratch<'_>,
+    clock: &mut C,
+) -> Result<FixReport, FixError> {
+    cfg.validate()?;
+    let crc_check = if cfg.self_check.verify_map_crc {
+        CrcCheck::Verify
+    } else {
+        CrcCheck::Skip
+    };
+    let product = MapProduct::parse(inputs.map_product, crc_check)?;
+    let meta = *product.meta();
+    let sizes = fix_buffer_sizes(cfg, &meta)?;
+    let net = SiameseNet::from_bytes(inputs.weights)?;
+    if meta.weights_crc != weights_crc(inputs.weights) {
+        return Err(FixError::MapMismatch {
+            what: "the map product's records were made with other weights",
+        });
+    }
+    let rel = (meta.geo.m_per_px() - cfg.grid.m_per_px).abs() / cfg.grid.m_per_px;
+    if rel > 1e-3 {
+        return Err(FixError::MapMismatch {
+            what: "map resolution differs from the top-down grid",
+        });
+    }
+    let map = product.map();
+    let (pc, pr) = meta.geo.to_pixel(inputs.pose.x_m, inputs.pose.y_m);
+    if !(pc >= 0.0 && pr >= 0.0 && pc < map.width() as f32 && pr < map.height() as f32) {
+        return Err(FixError::PriorOutsideMap);
+    }
+    let n = cfg.grid.n;
+    let FixScratch {
+        top,
+        mask,
+        work,
+        response,
+        refine_floats,
+        nn_arena,
+        nn_input,
+        nn_embedding,
+    } = scratch;
+    let too_small = |buffer| FixError::ScratchTooSmall { buffer };
+    let top = top.get_mut(..sizes.top).ok_or(too_small("top"))?;
+    let mask = mask.get_mut(..sizes.mask).ok_or(too_small("mask"))?;
+    let work = work.get_mut(..sizes.work_words).ok_or(too_small("work"))?;
+    let response = response
+        .get_mut(..sizes.response)
+        .ok_or(too_small("response"))?;
+    if refine_floats.len() < sizes.refine_floats {
+        return Err(too_small("refine_floats"));
+    }
+    let mut ops = StageOps::default();
+
+    // 1. Reprojection.
+    let reprojection = match inputs.depth {
+        Depth::Flat => reproject_flat(inputs, cfg, work, top, mask, clock, &mut ops)?,
+        Depth::Images(depths) => {
+            clock.begin(Stage::Reproject);
+            let r = reproject_range(
+                &inputs.frames,
+                &depths,
+                &inputs.params,
+                &inputs.pose,
+                &cfg.grid,
+                &cfg.range,
+                work.get_mut(..n * n).ok_or(too_small("work"))?,
+                top,
+                mask,
+            )?;
+            clock.end(Stage::Reproject);
+            ops.reproject_px = r.pixels_read;
+            ReprojectionSummary {
+                range: true,
+                status: r.status,
+                valid_cells: r.valid_cells,
+            }
+        }
+    };
+    let mut report = FixReport::no_data(inputs.pose.x_m, inputs.pose.y_m, reprojection);
+    let permille = (reprojection.valid_cells * 1000 / (n * n)) as u32;
+    report.coverage_permille = permille;
+    if reprojection.valid_cells == 0 || permille < cfg.min_coverage_permille {
+        report.ops = ops;
+        return Ok(report);
+    }
+
+    // 2. Embedding.
+    clock.begin(Stage::NnEmbed);
+    let embedded = embed(&net, top, mask, n, nn_input, nn_arena, nn_embedding);
+    let self_check_ok = match embedded {
+        Ok(()) if cfg.self_check.redundant_embed => {
+            let first = fnv1a(fnv1a_start(), &nn_embedding.map(|v| v as u8));
+            let again = embed(&net, top, mask, n, nn_input, nn_arena, nn_embedding);
+            again.is_ok() && first == fnv1a(fnv1a_start(), &nn_embedding.map(|v| v as u8))
+        }
+        _ => true,
+    };
+    clock.end(Stage::NnEmbed);
+    match embedded {
+        Ok(()) => {}
+        Err(NnError::TooFewValid | NnError::FlatInput) => {
+            report.ops = ops;
+            return Ok(report);
+        }
+        Err(e) => return Err(e.into()),
+    }
+    ops.embed_macs = embedding_macs() * if cfg.self_check.redundant_embed { 2 } else { 1 };
+    if !self_check_ok {
+        report.status = FixStatus::SelfCheckFailed;
+        report.ops = ops;
+        return Ok(report);
+    }
+
+    // 3. Coarse response.
+    clock.begin(Stage::NnMatch);
+    let zp = i8::try_from(net.embedding_zero_point()).map_err(|_| NnError::BadGeometry)?;
+    let windows = coarse::cosine_response(nn_embedding, zp, product.records(), response)?;
+    clock.end(Stage::NnMatch);
+    ops.match_elements = (windows * EMBED_LEN) as u64;
+    let layout = *product.layout();
+    let response = &response[..windows.min(response.len())];
+
+    // 4. Peaks, refinement, confidence.
+    clock.begin(Stage::Refine);
+    let step = meta.step_px;
+    let step_m = step as f32 * meta.geo.m_per_px();
+    let radius_cells = cfg.nms_radius_m / step_m;
+    let peaks = coarse::peaks(response, layout.cols, radius_cells, MAX_CANDIDATES);
+    let Some(&(best_idx, best_score)) = peaks.first() else {
+        clock.end(Stage::Refine);
+        report.ops = ops;
+        return Ok(report);
+    };
+    let cols = layout.cols;
+    let half = n as f32 / 2.0;
+    let centre = |col: f32, row: f32| meta.geo.to_world(col + half, row + half);
+    // The CNN's own sub-cell peak of the best window.
+    let cnn_pos = {
+        let (c, r) = (best_idx % cols, best_idx / cols);
+        let at = |x: usize, y: usize| {
+            if x < cols && y < layout.rows {
+                response.get(y * cols + x).map(|&v| v as f32)
+            } else {
+                None
+            }
+        };
+        let (dx, dy) = crate::peak::peak_offset_2d(at, c, r);
+        ((c as f32 + dx) * step as f32, (r as f32 + dy) * step as f32)
+    };
+    let mut refine_ops = OpCounts::default();
+    let mut chosen = (best_idx, cnn_pos, best_score as f32 / 32768.0, FixPath::Cnn);
+    let mut cands: heapless::Vec<Candidate, MAX_CANDIDATES> = heapless::Vec::new();
+    if cfg.refine.mode != RefineMode::Cnn {
+        let rl = RefineLayout::new(cfg, map.width(), map.height());
+        let (hp, bytes) = work.split_at_mut(rl.hp_words.min(work.len()));
+        // Safety: `u8` is valid for every bit pattern and has alignment 1, so the middle of
+        // `align_to_mut` is the whole `u32` buffer viewed as bytes.
+        let (_, bytes, _) = unsafe { bytes.align_to_mut::<u8>() };
+        let (persist, phase) = bytes.split_at_mut(rl.persistent_bytes().min(bytes.len()));
+        let top_v = ImageView::new(top, n, n).map_err(|_| too_small("top"))?;
+        let mask_v = ImageView::new(mask, n, n).map_err(|_| too_small("mask"))?;
+        let templates = refine::build_templates(
+            cfg,
+            &rl,
+            &top_v,
+            &mask_v,
+            hp,
+            persist,
+            phase,
+            &mut refine_ops,
+        );
+        match templates {
+            Ok(t) => {
+                let mut best: Option<(usize, refine::Refined)> = None;
+                for &(idx, _) in peaks.iter().take(cfg.refine.peaks) {
+                    let w = ((idx % cols) * step, (idx / cols) * step);
+                    let r = refine::refine_window(
+                        cfg,
+                        &rl,
+                        &t,
+                        &map,
+                        w,
+                        hp,
+                        phase,
+                        refine_floats,
+                        &mut refine_ops,
+                    )?;
+                    let (x_m, y_m) = centre(r.col, r.row);
+                    let _ = cands.push(Candidate {
+                        x_m,
+                        y_m,
+                        score: r.score,
+                        refined: true,
+                    });
+                    if best.is_none_or(|(_, b)| r.score > b.score) {
+                        best = Some((idx, r));
+                    }
+                }
+                if let Some((idx, r)) = best {
+                    let trusted = cfg.refine.mode == RefineMode::Ncc
+                        || (r.score >= cfg.refine.min_ncc && !r.at_edge);
+                    if trusted {
+                        chosen = (idx, (r.col, r.row), r.score, FixPath::Ncc);
+                    }
+                }
+            }
+            // A top-down image without contrast after the high-pass: the CNN's peak stands.
+            Err(FixError::Match(_)) => {}
+            Err(e) => return Err(e),
+        }
+    }
+    for &(idx, s) in peaks.iter().skip(cands.len()) {
+        let (x_m, y_m) = centre(((idx % cols) * step) as f32, ((idx / cols) * step) as f32);
+        let _ = cands.push(Candidate {
+            x_m,
+            y_m,
+            score: s as f32 / 32768.0,
+            refined: false,
+        });
+    }
+    let (idx, (col, row), score, path) = chosen;
+    let confidence = coarse::confidence(response, cols, idx, radius_cells);
+    clock.end(Stage::Refine);
+    ops.refine_macs = refine_ops.macs + refine_ops.downsample_px;
+
+    let (x_m, y_m) = centre(col, row);
+    let (c, r) = (idx % cols, idx / cols);
+    let on_border = c == 0 || r == 0 || c + 1 == cols || r + 1 == layout.rows;
+    report.x_m = x_m;
+    report.y_m = y_m;
+    report.score = score;
+    report.confidence = confidence;
+    report.path = path;
+    report.best_window = idx as u32;
+    report.cnn_best_window = best_idx as u32;
+    report.cnn_best_q15 = best_score;
+    report.windows = windows as u32;
+    report.candidates = cands;
+    report.error_bound_m = match path {
+        FixPath::Ncc => cfg.bounds.ncc_m,
+        FixPath::Cnn | FixPath::None => cfg.bounds.cnn_m,
+    };
+    report.status = if on_border {
+        FixStatus::OnBorder
+    } else if confidence < cfg.accept_confidence {
+        FixStatus::Ambiguous
+    } else {
+        FixStatus::Ok
+    };
+    report.ops = ops;
+    Ok(report)
+}
+
+/// CRC-32 of a weight file as the map product records it (the file's own trailer).
+pub fn weights_crc(weights: &[u8]) -> u32 {
+    match weights.len().checked_sub(4).and_then(|n| weights.get(n..)) {
+        Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
+        _ => crc32(weights),
+    }
+}
+
+fn embed(
+    net: &SiameseNet<'_>,
+    top: &[u8],
+    mask: &[u8],
+    n: usize,
+    input: &mut [i8; crate::nn::input::INPUT_LEN],
+    arena: &mut crate::nn::model::Arena,
+    out: &mut [i8; EMBED_LEN],
+) -> Result<(), NnError> {
+    prepare_input(top, Some(mask), n, input)?;
+    net.embed(input, arena, out)
+}
+
+/// Stage 1 on flat ground: the table built band by band in `work` (cells, then overlap
+/// taps), each band sampled into its rows of `top` and `mask`.
+fn reproject_flat<C: StageClock>(
+    inputs: &FixInputs<'_>,
+    cfg: &FixConfig,
+    work: &mut [u32],
+    top: &mut [u8],
+    mask: &mut [u8],
+    clock: &mut C,
+    ops: &mut StageOps,
+) -> Result<ReprojectionSummary, FixError> {
+    let n = cfg.grid.n;
+    let band_cells = LUT_BAND_ROWS.min(n) * n;
+    let cell_words = band_cells * core::mem::size_of::<Cell>() / 4 + 2;
+    let (cw, tw) = work.split_at_mut(cell_words.min(work.len()));
+    // Safety: `Cell` and `Tap` are `repr(C)` structs of integers without padding, valid for
+    // every bit pattern, as is `u32`; `align_to_mut` handles the alignment, so viewing the
+    // word buffers as cells and taps never creates an invalid value.
+    let (_, cells, _) = unsafe { cw.align_to_mut::<Cell>() };
+    // Safety: as above.
+    let (_, taps, _) = unsafe { tw.align_to_mut::<Tap>() };
+    let too_small = FixError::ScratchTooSmall { buffer: "work" };
+    let cells = cells.get_mut(..band_cells).ok_or(too_small)?;
+    let taps = taps.get_mut(..band_cells).ok_or(too_small)?;
+    let stride = inputs.params.width_px as usize;
+    clock.begin(Stage::Reproject);
+    let status = inputs
+        .frames
+        .map(|f| f.as_ref().map_or(FrameStatus::Missing, classify_frame));
+    clock.end(Stage::Reproject);
+    let mut report = ApplyReport {
+        status,
+        valid_cells: 0,
+        lost_cells: 0,
+    };
+    let mut row = 0usize;
+    while row < n {
+        let end = (row + LUT_BAND_ROWS).min(n);
+        let band = (end - row) * n;
+        let (Some(bc), Some(bt), Some(bm)) = (
+            cells.get_mut(..band),
+            top.get_mut(row * n..end * n),
+            mask.get_mut(row * n..end * n),
+        ) else {
+            return Err(too_small);
+        };
+        clock.begin(Stage::LutBuild);
+        let lut = Lut::build_rows(
+            bc,
+            taps,
+            &inputs.params,
+            &inputs.pose,
+            &cfg.grid,
+            stride,
+            row..end,
+        )?;
+        clock.end(Stage::LutBuild);
+        clock.begin(Stage::Reproject);
+        let a = lut.apply_with_status(&inputs.frames, &status, bt, bm)?;
+        clock.end(Stage::Reproject);
+        report.valid_cells += a.valid_cells;
+        report.lost_cells += a.lost_cells;
+        row = end;
+    }
+    ops.reproject_px = (n * n) as u64;
+    ops.lut_cells = (n * n) as u64;
+    Ok(ReprojectionSummary {
+        range: false,
+        status: report.status,
+        valid_cells: report.valid_cells,
+    })
+}

@@ -1,0 +1,153 @@
+//! Caller-provided working memory of one fix and its sizes ([`fix_buffer_sizes`]).
+
+use super::{FixConfig, FixError};
+use crate::map_product::MapProductMeta;
+use crate::matcher::prep::highpass_buffer_len;
+use crate::nn::input::INPUT_LEN;
+use crate::nn::model::{Arena, EMBED_LEN};
+use crate::reproject::{range_scratch_len, Cell, Tap};
+
+/// Grid rows per band of the flat-ground reprojection table: one band's cells (8 bytes
+/// each) and overlap taps (at most one per cell) live in [`FixScratch::work`] at a time.
+pub const LUT_BAND_ROWS: usize = 25;
+
+/// Element counts of every buffer of one fix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FixBufferSizes {
+    /// Top-down image, bytes (`n * n`).
+    pub top: usize,
+    /// Its validity mask, bytes (`n * n`).
+    pub mask: usize,
+    /// Shared work area, `u32` words: the range accumulator or one band of the table during
+    /// reprojection, then the refinement's images ([`RefineLayout`]).
+    pub work_words: usize,
+    /// Coarse response, one Q15 cosine per map window.
+    pub response: usize,
+    /// NCC responses of the refinement levels, `f32`.
+    pub refine_floats: usize,
+}
+
+impl FixBufferSizes {
+    /// Bytes of all of them together (the CNN's arena, input and embedding not included:
+    /// see [`FixScratch`]).
+    pub fn bytes(&self) -> usize {
+        self.top + self.mask + 4 * self.work_words + 4 * self.response + 4 * self.refine_floats
+    }
+}
+
+/// Where the refinement keeps its images inside the work area (bytes after
+/// `hp_words` words of high-pass scratch).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RefineLayout {
+    /// `u32` words of high-pass scratch at the start of the work area.
+    pub hp_words: usize,
+    /// Side of the coarse-level template (`n / factor0`), pixels.
+    pub a: usize,
+    /// Side of the fine-level template (`n / factor1`), pixels.
+    pub b: usize,
+    /// Side of the high-passed map region, pixels (clipped to the map).
+    pub region_w: usize,
+    /// Height of the region, pixels.
+    pub region_h: usize,
+    /// Side of the coarse-level map patch, pixels.
+    pub patch0: usize,
+    /// Side of the fine-level map patch, pixels.
+    pub patch1: usize,
+}
+
+impl RefineLayout {
+    /// The layout for `cfg` over a `map_w x map_h` map.
+    pub fn new(cfg: &FixConfig, map_w: usize, map_h: usize) -> Self {
+        let n = cfg.grid.n;
+        let [l0, l1] = cfg.refine.levels;
+        let margin = cfg.refine_margin_px();
+        let region_w = (n + 2 * margin).min(map_w);
+        let region_h = (n + 2 * margin).min(map_h);
+        let a = n / l0.factor.max(1);
+        let b = n / l1.factor.max(1);
+        Self {
+            hp_words: highpass_buffer_len(n.max(region_w)),
+            a,
+            b,
+            region_w,
+            region_h,
+            patch0: a + 2 * l0.reach_px,
+            patch1: b + 2 * l1.reach_px,
+        }
+    }
+
+    /// Bytes kept for the whole stage: the two levels' templates and weights.
+    pub fn persistent_bytes(&self) -> usize {
+        2 * self.a * self.a + 2 * self.b * self.b
+    }
+
+    /// Bytes of the template phase (high-passed full template) after the persistent ones.
+    pub fn template_phase_bytes(&self, n: usize) -> usize {
+        n * n
+    }
+
+    /// Bytes of the per-peak phase (high-passed region and both patches).
+    pub fn peak_phase_bytes(&self) -> usize {
+        self.region_w * self.region_h + self.patch0 * self.patch0 + self.patch1 * self.patch1
+    }
+
+    /// Work words the refinement needs.
+    pub fn words(&self, n: usize) -> usize {
+        let bytes =
+            self.persistent_bytes() + self.template_phase_bytes(n).max(self.peak_phase_bytes());
+        self.hp_words + bytes.div_ceil(4)
+    }
+}
+
+/// Sizes of every buffer of a fix with `cfg` over the map product described by `meta`.
+pub fn fix_buffer_sizes(
+    cfg: &FixConfig,
+    meta: &MapProductMeta,
+) -> Result<FixBufferSizes, FixError> {
+    cfg.validate()?;
+    let n = cfg.grid.n;
+    if meta.window_px != n {
+        return Err(FixError::MapMismatch {
+            what: "window side differs from the top-down grid",
+        });
+    }
+    let cols = (meta.width - n) / meta.step_px.max(1) + 1;
+    let rows = (meta.height - n) / meta.step_px.max(1) + 1;
+    let band_cells = LUT_BAND_ROWS.min(n) * n;
+    let word = core::mem::size_of::<u32>();
+    let lut_words = (band_cells * (core::mem::size_of::<Cell>() + core::mem::size_of::<Tap>()))
+        .div_ceil(word)
+        + 4;
+    let refine = RefineLayout::new(cfg, meta.width, meta.height);
+    let [l0, l1] = cfg.refine.levels;
+    let floats = (2 * l0.reach_px + 1).pow(2) + (2 * l1.reach_px + 1).pow(2);
+    Ok(FixBufferSizes {
+        top: n * n,
+        mask: n * n,
+        work_words: range_scratch_len(n).max(lut_words).max(refine.words(n)),
+        response: cols * rows,
+        refine_floats: floats,
+    })
+}
+
+/// Caller-provided working memory of one fix (static buffers on the target, `Vec`s on
+/// the host), each at least as long as [`fix_buffer_sizes`] says.
+pub struct FixScratch<'a> {
+    /// Top-down image, bytes.
+    pub top: &'a mut [u8],
+    /// Validity mask, bytes (255 valid, 0 no data).
+    pub mask: &'a mut [u8],
+    /// Shared work area, `u32` words.
+    pub work: &'a mut [u32],
+    /// Coarse response (Q15 cosines, row-major over the map product's window grid).
+    pub response: &'a mut [i32],
+    /// Refinement responses.
+    pub refine_floats: &'a mut [f32],
+    /// The CNN's activations and convolution scratch.
+    pub nn_arena: &'a mut Arena,
+    /// The CNN's int8 input.
+    pub nn_input: &'a mut [i8; INPUT_LEN],
+    /// The top-down image's embedding.
+    pub nn_embedding: &'a mut [i8; EMBED_LEN],
+}

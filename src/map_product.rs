@@ -1,0 +1,557 @@
+//! The map product (`.ofm`, "orbfix map"): the one file the rover carries for a region, made
+//! on the ground by `orbfix map` and validated here before any use.
+//!
+//! It holds the orbital map pixels (north-up, u8), their georeference, and the CNN records
+//! of the map windows ([`crate::nn::window_cosine`]: 50 m windows on a grid, each an int8
+//! embedding with its sums), with the settings they were made with and a CRC-32 trailer.
+//!
+//! Layout (little-endian; `docs/map-format.md`):
+//!
+//! | offset | bytes | field |
+//! |---:|---:|---|
+//! | 0 | 4 | magic `OFM1` |
+//! | 4 | 2 | version (1) |
+//! | 6 | 2 | reserved, 0 |
+//! | 8 | 4 | header bytes ([`HEADER_BYTES`] = 64) |
+//! | 12 | 4 | map width, pixels |
+//! | 16 | 4 | map height, pixels |
+//! | 20 | 4 | `f32` world east of the west edge, metres |
+//! | 24 | 4 | `f32` world north of the north edge, metres |
+//! | 28 | 4 | `f32` metres per pixel |
+//! | 32 | 4 | window side, pixels (the top-down grid's `n`) |
+//! | 36 | 4 | window grid step, pixels |
+//! | 40 | 4 | window grid columns |
+//! | 44 | 4 | window grid rows |
+//! | 48 | 4 | CRC-32 of the weight file the records were computed with |
+//! | 52 | 4 | `f32` sun elevation of the orbital image, degrees (NaN: unknown) |
+//! | 56 | 4 | `f32` sun azimuth of the orbital image, degrees clockwise from north (NaN: unknown) |
+//! | 60 | 4 | reserved, 0 |
+//! | 64 | w h | map pixels, row-major, row 0 north |
+//! | | 0-3 | zero padding to a multiple of 4 |
+//! | | cols rows 2056 | window records, row-major over the grid (top-left of window `(c, r)` at map pixel `(c step, r step)`) |
+//! | end - 4 | 4 | CRC-32 (IEEE) of every preceding byte |
+//!
+//! [`MapProduct::parse`] checks the CRC first (a damaged file is reported as damaged, not as
+//! whatever its damaged header claims), then every field and that the sizes agree.
+
+use crate::geo::GeoRef;
+use crate::image::ImageView;
+use crate::nn::input::{prepare_input, INPUT_LEN};
+use crate::nn::model::{Arena, SiameseNet, EMBED_LEN};
+use crate::nn::weights::crc32;
+use crate::nn::window_cosine::{write_window_record, WINDOW_RECORD_BYTES};
+use crate::nn::NnError;
+use core::fmt;
+
+/// File magic.
+pub const MAGIC: [u8; 4] = *b"OFM1";
+/// Format version this core reads.
+pub const VERSION: u16 = 1;
+/// Bytes of the header.
+pub const HEADER_BYTES: usize = 64;
+/// Largest map side the core accepts, pixels (16,384 px: 4.1 km at 0.25 m/px).
+pub const MAX_SIDE_PX: usize = 16_384;
+/// Largest distance of the map origin from the world origin, metres (10,000 km: more than
+/// any planetary radius the rover could work on).
+pub const MAX_ORIGIN_M: f32 = 1.0e7;
+
+/// Why a map product was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MapProductError {
+    /// Shorter than a header and a CRC.
+    Truncated {
+        /// Bytes present.
+        got: usize,
+    },
+    /// The stored CRC-32 differs from the content's: the file is damaged.
+    CrcMismatch {
+        /// CRC in the trailer.
+        stored: u32,
+        /// CRC of the content.
+        computed: u32,
+    },
+    /// Not a map product.
+    BadMagic,
+    /// A version this core cannot read.
+    UnsupportedVersion(u16),
+    /// A header field is out of range (`field` names it).
+    BadField {
+        /// The field.
+        field: &'static str,
+    },
+    /// The file's length differs from what its header declares.
+    LengthMismatch {
+        /// Bytes the header declares.
+        expected: usize,
+        /// Bytes present.
+        got: usize,
+    },
+    /// The output buffer of a writer is too small.
+    BufferTooSmall {
+        /// Bytes needed.
+        needed: usize,
+    },
+}
+
+impl fmt::Display for MapProductError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Truncated { got } => write!(
+                f,
+                "the map product is truncated ({got} bytes, less than a header and a checksum); copy it again"
+            ),
+            Self::CrcMismatch { stored, computed } => write!(
+                f,
+                "the map product is damaged (CRC-32 {computed:#010x}, the file says {stored:#010x}); copy it again or rebuild it with `orbfix map`"
+            ),
+            Self::BadMagic => write!(f, "not an orbfix map product (no OFM1 magic); build one with `orbfix map`"),
+            Self::UnsupportedVersion(v) => write!(
+                f,
+                "map product version {v} is not supported (this core reads version {VERSION}); rebuild it with this version's `orbfix map`"
+            ),
+            Self::BadField { field } => write!(
+                f,
+                "the map product's header field '{field}' is out of range; rebuild it with `orbfix map`"
+            ),
+            Self::LengthMismatch { expected, got } => write!(
+                f,
+                "the map product is {got} bytes but its header declares {expected}; copy it again"
+            ),
+            Self::BufferTooSmall { needed } => {
+                write!(f, "the map product buffer is too small ({needed} bytes needed)")
+            }
+        }
+    }
+}
+
+impl core::error::Error for MapProductError {}
+
+/// What a map product describes besides its pixels and records.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MapProductMeta {
+    /// Georeference of the map pixels.
+    pub geo: GeoRef,
+    /// Map width, pixels.
+    pub width: usize,
+    /// Map height, pixels.
+    pub height: usize,
+    /// Window side, pixels (the top-down grid's `n`).
+    pub window_px: usize,
+    /// Window grid step, pixels.
+    pub step_px: usize,
+    /// CRC-32 of the weight file the records were made with.
+    pub weights_crc: u32,
+    /// Sun of the orbital image `(elevation, azimuth)`, degrees, if known.
+    pub sun_deg: Option<(f32, f32)>,
+}
+
+/// Offsets and sizes of a map product's parts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MapProductLayout {
+    /// Window grid columns.
+    pub cols: usize,
+    /// Window grid rows.
+    pub rows: usize,
+    /// Offset of the pixels (= [`HEADER_BYTES`]).
+    pub pixels_at: usize,
+    /// Offset of the first window record (4-byte aligned).
+    pub records_at: usize,
+    /// Bytes of the whole file, CRC included.
+    pub total: usize,
+}
+
+impl MapProductLayout {
+    /// The layout of a `width x height` map with `window_px` windows every `step_px`.
+    pub fn new(
+        width: usize,
+        height: usize,
+        window_px: usize,
+        step_px: usize,
+    ) -> Result<Self, MapProductError> {
+        let bad = |field| MapProductError::BadField { field };
+        if width == 0 || width > MAX_SIDE_PX {
+            return Err(bad("width"));
+        }
+        if height == 0 || height > MAX_SIDE_PX {
+            return Err(bad("height"));
+        }
+        if window_px == 0 || window_px > width || window_px > height {
+            return Err(bad("window side"));
+        }
+        if step_px == 0 || step_px > window_px {
+            return Err(bad("window step"));
+        }
+        let cols = (width - window_px) / step_px + 1;
+        let rows = (height - window_px) / step_px + 1;
+        // Sides are at most 2^14, so these products stay far below usize::MAX even on
+        // 32-bit targets (2^28 pixels, 2^28 windows x 2056 bytes would not: checked).
+        let pixels = width * height;
+        let records_at = (HEADER_BYTES + pixels).next_multiple_of(4);
+        let records = (cols * rows)
+            .checked_mul(WINDOW_RECORD_BYTES)
+            .ok_or(bad("window grid"))?;
+        let total = records_at
+            .checked_add(records)
+            .and_then(|t| t.checked_add(4))
+            .ok_or(bad("window grid"))?;
+        Ok(Self {
+            cols,
+            rows,
+            pixels_at: HEADER_BYTES,
+            records_at,
+            total,
+        })
+    }
+
+    /// Windows on the grid.
+    pub fn windows(&self) -> usize {
+        self.cols * self.rows
+    }
+}
+
+/// A validated map product, borrowing the file's bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct MapProduct<'a> {
+    meta: MapProductMeta,
+    layout: MapProductLayout,
+    map: ImageView<'a>,
+    records: &'a [u8],
+}
+
+/// Whether [`MapProduct::parse`] recomputes the CRC.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CrcCheck {
+    /// Recompute the CRC-32 of the whole file (about 10 instructions per byte on the
+    /// target; once when the file is loaded, and in the fix's self-check).
+    Verify,
+    /// Trust a CRC verified earlier (structure still checked).
+    Skip,
+}
+
+fn u16_at(b: &[u8], at: usize) -> u16 {
+    match b.get(at..at + 2) {
+        Some(&[x, y]) => u16::from_le_bytes([x, y]),
+        _ => 0,
+    }
+}
+
+fn u32_at(b: &[u8], at: usize) -> u32 {
+    match b.get(at..at + 4) {
+        Some(&[a, c, d, e]) => u32::from_le_bytes([a, c, d, e]),
+        _ => 0,
+    }
+}
+
+fn f32_at(b: &[u8], at: usize) -> f32 {
+    f32::from_bits(u32_at(b, at))
+}
+
+impl<'a> MapProduct<'a> {
+    /// Validates `bytes` as a map product: CRC (unless `crc` is [`CrcCheck::Skip`]), magic,
+    /// version, every header field, and the length.
+    pub fn parse(bytes: &'a [u8], crc: CrcCheck) -> Result<Self, MapProductError> {
+        if bytes.len() < HEADER_BYTES + 4 {
+            return Err(MapProductError::Truncated { got: bytes.len() });
+        }
+        let body_len = bytes.len() - 4;
+        if crc == CrcCheck::Verify {
+            let stored = u32_at(bytes, body_len);
+            let computed = crc32(bytes.get(..body_len).unwrap_or_default());
+            if stored != computed {
+                return Err(MapProductError::CrcMismatch { stored, computed });
+            }
+        }
+        if bytes.get(..4) != Some(&MAGIC[..]) {
+            return Err(MapProductError::BadMagic);
+        }
+        let version = u16_at(bytes, 4);
+        if version != VERSION {
+            return Err(MapProductError::UnsupportedVersion(version));
+        }
+        let bad = |field| MapProductError::BadField { field };
+        if u32_at(bytes, 8) as usize != HEADER_BYTES {
+            return Err(bad("header bytes"));
+        }
+        let (ox, oy, res) = (f32_at(bytes, 20), f32_at(bytes, 24), f32_at(bytes, 28));
+        if !(ox.is_finite()
+            && oy.is_finite()
+            && ox.abs() <= MAX_ORIGIN_M
+            && oy.abs() <= MAX_ORIGIN_M)
+        {
+            return Err(bad("origin"));
+        }
+        let geo = GeoRef::new(ox, oy, res).map_err(|_| bad("metres per pixel"))?;
+        let width = u32_at(bytes, 12) as usize;
+        let height = u32_at(bytes, 16) as usize;
+        let window_px = u32_at(bytes, 32) as usize;
+        let step_px = u32_at(bytes, 36) as usize;
+        let layout = MapProductLayout::new(width, height, window_px, step_px)?;
+        if u32_at(bytes, 40) as usize != layout.cols {
+            return Err(bad("window columns"));
+        }
+        if u32_at(bytes, 44) as usize != layout.rows {
+            return Err(bad("window rows"));
+        }
+        if bytes.len() != layout.total {
+            return Err(MapProductError::LengthMismatch {
+                expected: layout.total,
+                got: bytes.len(),
+            });
+        }
+        let (el, az) = (f32_at(bytes, 52), f32_at(bytes, 56));
+        let sun_deg = if el.is_finite() && az.is_finite() {
+            if !(-90.0..=90.0).contains(&el) {
+                return Err(bad("sun elevation"));
+            }
+            Some((el, az))
+        } else {
+            None
+        };
+        let pixels = bytes
+            .get(layout.pixels_at..layout.pixels_at + width * height)
+            .ok_or(MapProductError::LengthMismatch {
+                expected: layout.total,
+                got: bytes.len(),
+            })?;
+        let records = bytes.get(layout.records_at..layout.total - 4).ok_or(
+            MapProductError::LengthMismatch {
+                expected: layout.total,
+                got: bytes.len(),
+            },
+        )?;
+        let map = ImageView::new(pixels, width, height).map_err(|_| bad("width"))?;
+        Ok(Self {
+            meta: MapProductMeta {
+                geo,
+                width,
+                height,
+                window_px,
+                step_px,
+                weights_crc: u32_at(bytes, 48),
+                sun_deg,
+            },
+            layout,
+            map,
+            records,
+        })
+    }
+
+    /// Header values.
+    pub fn meta(&self) -> &MapProductMeta {
+        &self.meta
+    }
+
+    /// Offsets and the window grid.
+    pub fn layout(&self) -> &MapProductLayout {
+        &self.layout
+    }
+
+    /// The map pixels as an image.
+    pub fn map(&self) -> ImageView<'a> {
+        self.map
+    }
+
+    /// All window records, row-major over the grid.
+    pub fn records(&self) -> &'a [u8] {
+        self.records
+    }
+}
+
+/// Writes the header of a map product with `meta` into `out[..HEADER_BYTES]` and returns
+/// the layout; the caller then fills the pixels at `layout.pixels_at`, the records at
+/// `layout.records_at`, and calls [`seal`].
+pub fn write_header(
+    meta: &MapProductMeta,
+    out: &mut [u8],
+) -> Result<MapProductLayout, MapProductError> {
+    let layout = MapProductLayout::new(meta.width, meta.height, meta.window_px, meta.step_px)?;
+    let g = meta.geo;
+    if !(g.origin_x_m().abs() <= MAX_ORIGIN_M && g.origin_y_m().abs() <= MAX_ORIGIN_M) {
+        return Err(MapProductError::BadField { field: "origin" });
+    }
+    let head = out
+        .get_mut(..HEADER_BYTES)
+        .ok_or(MapProductError::BufferTooSmall {
+            needed: layout.total,
+        })?;
+    head.fill(0);
+    let (el, az) = meta.sun_deg.unwrap_or((f32::NAN, f32::NAN));
+    let words: [(usize, u32); 14] = [
+        (8, HEADER_BYTES as u32),
+        (12, meta.width as u32),
+        (16, meta.height as u32),
+        (20, g.origin_x_m().to_bits()),
+        (24, g.origin_y_m().to_bits()),
+        (28, g.m_per_px().to_bits()),
+        (32, meta.window_px as u32),
+        (36, meta.step_px as u32),
+        (40, layout.cols as u32),
+        (44, layout.rows as u32),
+        (48, meta.weights_crc),
+        (52, el.to_bits()),
+        (56, az.to_bits()),
+        (60, 0),
+    ];
+    if let Some(m) = head.get_mut(..4) {
+        m.copy_from_slice(&MAGIC);
+    }
+    if let Some(v) = head.get_mut(4..6) {
+        v.copy_from_slice(&VERSION.to_le_bytes());
+    }
+    for (at, w) in words {
+        if let Some(d) = head.get_mut(at..at + 4) {
+            d.copy_from_slice(&w.to_le_bytes());
+        }
+    }
+    Ok(layout)
+}
+
+/// Writes the CRC-32 trailer of a complete map product (`out.len() == layout.total`).
+pub fn seal(out: &mut [u8]) -> Result<(), MapProductError> {
+    let n = out.len();
+    if n < HEADER_BYTES + 4 {
+        return Err(MapProductError::Truncated { got: n });
+    }
+    let c = crc32(out.get(..n - 4).unwrap_or_default());
+    if let Some(t) = out.get_mut(n - 4..) {
+        t.copy_from_slice(&c.to_le_bytes());
+    }
+    Ok(())
+}
+
+/// Computes the records of the window-grid rows `rows` of a `layout` over `map` with
+/// `net` into `out` (`rows.len() * layout.cols` records, row-major), using `window`
+/// (`n * n` bytes) as the copy buffer. Done on the ground, with the same network code as
+/// the flight stage; rows are independent, so a host can compute them in parallel. A window
+/// the network cannot embed (no contrast) gets the all-zero-point record (cosine 0).
+#[allow(clippy::too_many_arguments)]
+pub fn write_window_records(
+    map: &ImageView<'_>,
+    n: usize,
+    step: usize,
+    layout: &MapProductLayout,
+    rows: core::ops::Range<usize>,
+    net: &SiameseNet<'_>,
+    window: &mut [u8],
+    arena: &mut Arena,
+    input: &mut [i8; INPUT_LEN],
+    out: &mut [u8],
+) -> Result<usize, NnError> {
+    let window = window.get_mut(..n * n).ok_or(NnError::BufferSize)?;
+    let zp = i8::try_from(net.embedding_zero_point()).map_err(|_| NnError::BadGeometry)?;
+    let mut emb = [0i8; EMBED_LEN];
+    let mut chunks = out.chunks_exact_mut(WINDOW_RECORD_BYTES);
+    let mut count = 0;
+    for r in rows {
+        if r >= layout.rows {
+            return Err(NnError::BufferSize);
+        }
+        for c in 0..layout.cols {
+            let sub = map
+                .sub(c * step, r * step, n, n)
+                .ok_or(NnError::BufferSize)?;
+            for (y, dst) in window.chunks_exact_mut(n).enumerate() {
+                dst.copy_from_slice(sub.row(y).ok_or(NnError::BufferSize)?);
+            }
+            match prepare_input(window, None, n, input) {
+                Ok(()) => net.embed(input, arena, &mut emb)?,
+                Err(NnError::FlatInput | NnError::TooFewValid) => emb = [zp; EMBED_LEN],
+                Err(e) => return Err(e),
+            }
+            write_window_record(&emb, chunks.next().ok_or(NnError::BufferSize)?)?;
+            count += 1;
+        }
+    }
+    Ok(count)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn build(buf: &mut [u8; 4096], w: usize, h: usize, n: usize, step: usize) -> usize {
+        let meta = MapProductMeta {
+            geo: GeoRef::new(100.0, 200.0, 0.25).unwrap(),
+            width: w,
+            height: h,
+            window_px: n,
+            step_px: step,
+            weights_crc: 0xdead_beef,
+            sun_deg: Some((30.0, 135.0)),
+        };
+        let l = write_header(&meta, buf).unwrap();
+        for (i, p) in buf[l.pixels_at..l.pixels_at + w * h].iter_mut().enumerate() {
+            *p = i as u8;
+        }
+        seal(&mut buf[..l.total]).unwrap();
+        l.total
+    }
+
+    #[test]
+    fn round_trip_and_every_damage_is_caught() {
+        let mut buf = [0u8; 4096];
+        // A 9 x 9 map with one 9 px window: header, 81 pixels, 3 padding, one record, CRC.
+        let l = MapProductLayout::new(9, 9, 9, 1).unwrap();
+        assert_eq!((l.cols, l.rows), (1, 1));
+        let total = build(&mut buf, 9, 9, 9, 1);
+        assert_eq!(total, l.total);
+        let p = MapProduct::parse(&buf[..total], CrcCheck::Verify).unwrap();
+        assert_eq!(p.meta().width, 9);
+        assert_eq!(p.meta().sun_deg, Some((30.0, 135.0)));
+        assert_eq!(p.meta().weights_crc, 0xdead_beef);
+        assert_eq!(p.records().len(), WINDOW_RECORD_BYTES);
+        assert_eq!(p.map().get(3, 1), Some(12));
+        // Every single-bit flip is caught (by the CRC).
+        for byte in 0..total {
+            for bit in 0..8 {
+                buf[byte] ^= 1 << bit;
+                assert!(MapProduct::parse(&buf[..total], CrcCheck::Verify).is_err());
+                buf[byte] ^= 1 << bit;
+            }
+        }
+        // Truncation.
+        assert!(matches!(
+            MapProduct::parse(&buf[..total - 1], CrcCheck::Verify),
+            Err(MapProductError::CrcMismatch { .. })
+        ));
+        assert!(matches!(
+            MapProduct::parse(&buf[..10], CrcCheck::Verify),
+            Err(MapProductError::Truncated { got: 10 })
+        ));
+        // A header lie with a valid CRC is caught by the structure checks.
+        buf[40] = 7;
+        seal(&mut buf[..total]).unwrap();
+        assert_eq!(
+            MapProduct::parse(&buf[..total], CrcCheck::Verify).unwrap_err(),
+            MapProductError::BadField {
+                field: "window columns"
+            }
+        );
+    }
+
+    #[test]
+    fn hostile_headers_are_refused() {
+        assert!(MapProductLayout::new(0, 10, 1, 1).is_err());
+        assert!(MapProductLayout::new(10, 10, 11, 1).is_err());
+        assert!(MapProductLayout::new(10, 10, 5, 0).is_err());
+        assert!(MapProductLayout::new(usize::MAX, 10, 5, 1).is_err());
+        let mut buf = [0u8; 4096];
+        let meta = MapProductMeta {
+            geo: GeoRef::new(1.0e38, 0.0, 0.25).unwrap(),
+            width: 9,
+            height: 9,
+            window_px: 9,
+            step_px: 1,
+            weights_crc: 0,
+            sun_deg: None,
+        };
+        assert_eq!(
+            write_header(&meta, &mut buf).unwrap_err(),
+            MapProductError::BadField { field: "origin" }
+        );
+    }
+}
