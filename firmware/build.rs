@@ -19,10 +19,10 @@ fn main() {
             panic!(
             "ORBFIX_VECTORS_DIR is not set: the firmware embeds test vectors made by the host. \
              Run `orbfix budget` (it writes them and builds this crate), or \
-             `orbfix budget --vectors-only DIR` and set ORBFIX_VECTORS_DIR=DIR."
+             `orbfix budget --vectors-dir DIR` once and set ORBFIX_VECTORS_DIR=DIR."
         )
         });
-    for name in ["vectors.rs", "frames.bin", "map.bin", "map_windows.bin"] {
+    for name in ["vectors.rs", "frames.bin", "depths.bin", "product.bin"] {
         let src = dir.join(name);
         fs::copy(&src, out.join(name)).unwrap_or_else(|e| {
             panic!(

@@ -22,7 +22,6 @@
 //! - [`map_product`]: the versioned map file the rover carries (map, georeference, CNN
 //!   window records, CRC-32);
 //! - [`peak`]: sub-sample peak location;
-//! - [`flight_run`]: the fix as one call with per-stage hooks (timed on target, re-run on host).
 //! - [`nn`]: quantized siamese CNN matcher (int8 kernels, weight file, shipped network).
 #![no_std]
 #![deny(unsafe_op_in_unsafe_fn)]
@@ -34,7 +33,6 @@
 
 pub mod camera;
 pub mod fix;
-pub mod flight_run;
 pub mod geo;
 pub mod image;
 pub mod localize;

@@ -6,7 +6,7 @@
 
 use core::ptr::{addr_of, read_volatile, write_volatile};
 use core::sync::atomic::{AtomicU32, Ordering};
-use orbfix::flight_run::{Stage, StageClock};
+use orbfix::fix::{Stage, StageClock};
 
 const SYST_CSR: *mut u32 = 0xE000_E010 as *mut u32;
 const SYST_RVR: *mut u32 = 0xE000_E014 as *mut u32;

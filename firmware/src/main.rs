@@ -1,20 +1,11 @@
 //! orbfix example flight firmware (Cortex-M7, QEMU mps2-an500).
 //!
-//! Runs the whole fix of the `orbfix` core ([`orbfix::flight_run::run`]) once on test
-//! vectors made by the host (`orbfix budget`), which sit in external memory (`.psram`),
-//! then reports over semihosting, one record per line:
-//!
-//! ```text
-//! ORBFIX-FW 1
-//! STAGE <name> <systick ticks>
-//! TOTAL <systick ticks>
-//! RESULT <key> <value>
-//! STACK <peak bytes> <stack bytes>
-//! END OK | END ERR <what>
-//! ```
-//!
-//! and exits through semihosting with status 0 (fix ran, stack within its region) or 1.
-//! Under `-icount shift=0` one SysTick tick is 40 instructions (see docs/flight-target.md).
+//! Runs the core's one fix ([`orbfix::fix::run`]) once on a rover stop rendered from the
+//! procedural world by the host (`orbfix budget`): four frames and their depth images, the
+//! map product and the shipped weights, all in external memory (`.psram`); then reports
+//! over semihosting in the core's result protocol ([`orbfix::fix::protocol`]) and exits
+//! through semihosting with status 0 (fix ran, stack within its region) or 1. Under
+//! `-icount shift=0` one SysTick tick is 40 instructions (see docs/flight-target.md).
 //!
 //! No panic path may remain: the panic handler calls a symbol that does not exist, so the
 //! firmware only links when the optimizer has removed every call to it.
@@ -34,50 +25,54 @@ mod vectors {
 use core::ptr::addr_of_mut;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use orbfix::camera::{CameraParams, RoverPose};
-use orbfix::flight_run::{self, FlightConfig, FlightInputs, Scratch, Stage};
-use orbfix::geo::GeoRef;
+use orbfix::fix::{self, protocol, Depth, FixConfig, FixInputs, FixScratch, Stage};
 use orbfix::image::ImageView;
-use orbfix::localize::LocalizeConfig;
 use orbfix::nn::input::INPUT_LEN;
-use orbfix::nn::model::{Arena, EMBED_LEN};
-use orbfix::reproject::{table_len, GridSpec};
+use orbfix::nn::model::{Arena, EMBED_LEN, SHIPPED_WEIGHTS};
+use orbfix::reproject::{DepthView, GridSpec};
 use report::Line;
-
-/// The four frames, dataset order, packed (external memory: inputs).
-#[link_section = ".psram.frames"]
-static FRAMES: [u8; vectors::FRAMES_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/frames.bin"));
-/// CNN records of the map windows (embedding and its sums, `orbfix::nn::window_cosine`
-/// layout), made on the ground with the map (external memory: inputs). 4-byte aligned so
-/// every record's embedding is too (records are a multiple of 4 bytes).
-#[link_section = ".psram.mapwin"]
-static MAP_WINDOWS: Aligned<[u8; vectors::MAP_WINDOWS_LEN]> = Aligned(*include_bytes!(concat!(
-    env!("OUT_DIR"),
-    "/map_windows.bin"
-)));
-/// The orbital map region (external memory: inputs).
-#[link_section = ".psram.map"]
-static MAP: [u8; vectors::MAP_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/map.bin"));
-
-const FRAME_LEN: usize = vectors::WIDTH * vectors::HEIGHT;
-const CELLS: usize = table_len(vectors::GRID_N);
-
-// Working memory in SRAM (.bss): top-down image, mask and the localizer's scratch. The
-// reprojection table has no buffer of its own: the core builds and applies it in bands of
-// `flight_run::LUT_BAND_ROWS` grid rows inside LOC_FLOATS (cells) and LOC_BYTES (overlap
-// taps) before the localizer uses them.
-static mut TOP: [u8; CELLS] = [0; CELLS];
-static mut MASK: [u8; CELLS] = [0; CELLS];
-static mut LOC_BYTES: [u8; vectors::LOC_BYTES] = [0; vectors::LOC_BYTES];
-static mut LOC_FLOATS: [f32; vectors::LOC_FLOATS] = [0.0; vectors::LOC_FLOATS];
-static mut NN_ARENA: Arena = Arena::new();
-static mut NN_INPUT: [i8; INPUT_LEN] = [0; INPUT_LEN];
-static mut NN_EMBEDDING: [i8; EMBED_LEN] = [0; EMBED_LEN];
 
 /// 4-byte alignment for word loads.
 #[repr(C, align(4))]
 struct Aligned<T>(T);
 
-fn inputs() -> Option<FlightInputs<'static>> {
+/// The four frames, rig order, packed (external memory: inputs).
+#[link_section = ".psram.frames"]
+static FRAMES: [u8; vectors::FRAMES_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/frames.bin"));
+/// Their depth images, `u16` little-endian millimetres, packed (external memory: inputs).
+#[link_section = ".psram.depths"]
+static DEPTHS: Aligned<[u8; vectors::DEPTHS_BYTES]> =
+    Aligned(*include_bytes!(concat!(env!("OUT_DIR"), "/depths.bin")));
+/// The map product: map pixels, georeference and CNN window records (external memory:
+/// inputs; 4-byte aligned so every record's embedding is).
+#[link_section = ".psram.product"]
+static PRODUCT: Aligned<[u8; vectors::PRODUCT_LEN]> =
+    Aligned(*include_bytes!(concat!(env!("OUT_DIR"), "/product.bin")));
+
+const FRAME_LEN: usize = vectors::WIDTH * vectors::HEIGHT;
+
+// Working memory in SRAM (.bss), sized by `fix::fix_buffer_sizes` on the host. The work
+// area (the range accumulator, then the refinement's images) is in external memory
+// (`.xscratch`, counted as working memory by the budget).
+static mut TOP: [u8; vectors::TOP] = [0; vectors::TOP];
+static mut MASK: [u8; vectors::MASK] = [0; vectors::MASK];
+#[link_section = ".xscratch.work"]
+static mut WORK: [u32; vectors::WORK_WORDS] = [0; vectors::WORK_WORDS];
+static mut RESPONSE: [i32; vectors::RESPONSE] = [0; vectors::RESPONSE];
+static mut REFINE_FLOATS: [f32; vectors::REFINE_FLOATS] = [0.0; vectors::REFINE_FLOATS];
+static mut NN_ARENA: Arena = Arena::new();
+static mut NN_INPUT: [i8; INPUT_LEN] = [0; INPUT_LEN];
+static mut NN_EMBEDDING: [i8; EMBED_LEN] = [0; EMBED_LEN];
+
+fn depths() -> Option<&'static [u16]> {
+    // Safety: `u16` is valid for every bit pattern; `align_to` only yields the aligned
+    // middle (the buffer is 4-byte aligned, so the prefix is empty), and the target is
+    // little-endian like the file.
+    let (pre, d, _) = unsafe { DEPTHS.0.align_to::<u16>() };
+    pre.is_empty().then_some(d)
+}
+
+fn inputs() -> Option<FixInputs<'static>> {
     let params = CameraParams {
         width_px: vectors::WIDTH as u32,
         height_px: vectors::HEIGHT as u32,
@@ -97,36 +92,45 @@ fn inputs() -> Option<FlightInputs<'static>> {
         let data = FRAMES.get(i * FRAME_LEN..(i + 1) * FRAME_LEN)?;
         ImageView::new(data, vectors::WIDTH, vectors::HEIGHT).ok()
     };
-    Some(FlightInputs {
+    let d = depths()?;
+    let depth = |i: usize| {
+        let data = d.get(i * FRAME_LEN..(i + 1) * FRAME_LEN)?;
+        DepthView::new(data, vectors::WIDTH, vectors::HEIGHT).ok()
+    };
+    Some(FixInputs {
         params,
         pose,
-        frames: [frame(0)?, frame(1)?, frame(2)?, frame(3)?],
-        map: ImageView::new(&MAP, vectors::MAP_W, vectors::MAP_H).ok()?,
-        map_geo: GeoRef::new(
-            vectors::MAP_GEO[0],
-            vectors::MAP_GEO[1],
-            vectors::MAP_GEO[2],
-        )
-        .ok()?,
-        map_windows: &MAP_WINDOWS.0,
+        frames: [frame(0), frame(1), frame(2), frame(3)],
+        depth: if vectors::HAS_DEPTH {
+            Depth::Images([depth(0), depth(1), depth(2), depth(3)])
+        } else {
+            Depth::Flat
+        },
+        map_product: &PRODUCT.0,
+        weights: SHIPPED_WEIGHTS,
     })
 }
 
 #[entry]
 fn main() -> ! {
-    Line::new().str("ORBFIX-FW 1").send();
-    let cfg = FlightConfig {
+    Line::new()
+        .str(protocol::HEADER)
+        .str(" ")
+        .u64(protocol::VERSION as u64)
+        .send();
+    let cfg = FixConfig {
         grid: GridSpec::new(vectors::GRID_N, vectors::GRID_M_PER_PX),
-        localize: LocalizeConfig::default(),
+        ..FixConfig::default()
     };
     // Safety: `main` runs once and is the only code that touches these statics (the
     // SysTick and HardFault handlers do not), so these are the only references to them.
     let mut scratch = unsafe {
-        Scratch {
+        FixScratch {
             top: &mut *addr_of_mut!(TOP),
             mask: &mut *addr_of_mut!(MASK),
-            loc_bytes: &mut *addr_of_mut!(LOC_BYTES),
-            loc_floats: &mut *addr_of_mut!(LOC_FLOATS),
+            work: &mut *addr_of_mut!(WORK),
+            response: &mut *addr_of_mut!(RESPONSE),
+            refine_floats: &mut *addr_of_mut!(REFINE_FLOATS),
             nn_arena: &mut *addr_of_mut!(NN_ARENA),
             nn_input: &mut *addr_of_mut!(NN_INPUT),
             nn_embedding: &mut *addr_of_mut!(NN_EMBEDDING),
@@ -136,12 +140,13 @@ fn main() -> ! {
     let t0 = clock.now();
     #[cfg(not(feature = "no-fix"))]
     let result = match inputs() {
-        Some(inp) => flight_run::run(&inp, &cfg, &mut scratch, &mut clock)
-            .map_err(|e| report::flight_error(&e)),
-        None => Err("bad test vectors (sizes or georeference)"),
+        Some(inp) => {
+            fix::run(&inp, &cfg, &mut scratch, &mut clock).map_err(|e| report::fix_error(&e))
+        }
+        None => Err("bad test vectors (sizes)"),
     };
     #[cfg(feature = "no-fix")]
-    let result: Result<orbfix::flight_run::FlightOutputs, &str> = {
+    let result: Result<orbfix::fix::FixReport, &str> = {
         let _ = (&mut scratch, &cfg, inputs().is_some());
         Err("built without the fix (feature no-fix: link-check baseline)")
     };
@@ -157,36 +162,41 @@ fn main() -> ! {
 
     for stage in Stage::ALL {
         Line::new()
-            .str("STAGE ")
+            .str(protocol::STAGE)
+            .str(" ")
             .str(stage.name())
             .str(" ")
             .u64(clock.ticks(stage))
             .send();
     }
-    Line::new().str("TOTAL ").u64(total).send();
+    Line::new().str(protocol::TOTAL).str(" ").u64(total).send();
 
     let mut ok = true;
     match &result {
-        Ok(out) => report::outputs(out),
+        Ok(r) => report::results(r, fix::output_digest(r, &scratch, cfg.grid.n)),
         Err(what) => {
             ok = false;
-            Line::new().str("END ERR ").str(what).send();
+            Line::new().str(protocol::END).str(" ERR ").str(what).send();
         }
     }
 
     let (peak, size) = clock::stack_peak();
     Line::new()
-        .str("STACK ")
+        .str(protocol::STACK)
+        .str(" ")
         .u64(peak as u64)
         .str(" ")
         .u64(size as u64)
         .send();
     if peak >= size {
         ok = false;
-        Line::new().str("END ERR stack overflow").send();
+        Line::new()
+            .str(protocol::END)
+            .str(" ERR stack overflow")
+            .send();
     }
     if ok {
-        Line::new().str("END OK").send();
+        Line::new().str(protocol::END).str(" OK").send();
     }
     report::exit(ok)
 }

@@ -1,7 +1,7 @@
 //! Report lines over semihosting without `core::fmt` (which would bring panic paths and
 //! several kB of code): a fixed line buffer, decimal and hex numbers, SYS_WRITE0.
 
-use orbfix::flight_run::{status_code, FlightError, FlightOutputs};
+use orbfix::fix::{protocol, FixError, FixReport};
 
 const CAP: usize = 160;
 
@@ -96,99 +96,36 @@ impl Line {
     }
 }
 
-/// The `RESULT` lines of a fix (format shared with `orbfix_host::budget::host_results`;
-/// `f32` as exact bit patterns).
-pub fn outputs(out: &FlightOutputs) {
-    let l = &out.lut;
-    let a = &out.apply;
-    let f = &out.fix;
-    let mut line = Line::new().str("RESULT lut");
-    for v in [
-        l.valid_cells,
-        l.blended_cells,
-        l.dropped_taps,
-        l.cells_per_view[0],
-        l.cells_per_view[1],
-        l.cells_per_view[2],
-        l.cells_per_view[3],
-    ] {
-        line = line.str(" ").u64(v as u64);
+/// The `RESULT` lines of a fix, in the order and with the values of the core's protocol
+/// ([`orbfix::fix::protocol`]).
+pub fn results(r: &FixReport, digest: u32) {
+    for (k, v) in protocol::RESULT_KEYS
+        .iter()
+        .zip(protocol::result_values(r, digest))
+    {
+        Line::new()
+            .str(protocol::RESULT)
+            .str(" ")
+            .str(k)
+            .str(" ")
+            .hex32(v)
+            .send();
     }
-    line.send();
-    let mut line = Line::new().str("RESULT apply");
-    for s in a.status {
-        line = line.str(" ").u64(status_code(s) as u64);
-    }
-    line.str(" ")
-        .u64(a.valid_cells as u64)
-        .str(" ")
-        .u64(a.lost_cells as u64)
-        .send();
-    Line::new()
-        .str("RESULT top_hash ")
-        .hex32(out.top_hash)
-        .send();
-    Line::new()
-        .str("RESULT mask_hash ")
-        .hex32(out.mask_hash)
-        .send();
-    Line::new()
-        .str("RESULT response ")
-        .hex32(out.response_hash)
-        .str(" ")
-        .u64(out.response_len as u64)
-        .send();
-    Line::new()
-        .str("RESULT candidates ")
-        .hex32(out.candidates_hash)
-        .str(" ")
-        .u64(f.candidates as u64)
-        .send();
-    let mut line = Line::new().str("RESULT fix");
-    for v in [
-        f.x_m,
-        f.y_m,
-        f.score,
-        f.confidence,
-        f.peak_score,
-        f.second_score,
-    ] {
-        line = line.str(" ").hex32(v.to_bits());
-    }
-    line.str(" ").u64(f.on_border as u64).send();
-    Line::new()
-        .str("RESULT ops ")
-        .u64(out.ops.macs)
-        .str(" ")
-        .u64(out.ops.windows)
-        .str(" ")
-        .u64(out.ops.downsample_px)
-        .send();
-    Line::new()
-        .str("RESULT nn ")
-        .hex32(out.embedding_hash)
-        .str(" ")
-        .hex32(out.nn_scores_hash)
-        .str(" ")
-        .u64(out.nn_windows as u64)
-        .str(" ")
-        .u64(out.nn_best.0 as u64)
-        .str(" ")
-        .i32(out.nn_best.1)
-        .send();
-    Line::new().str("RESULT digest ").hex32(out.digest()).send();
 }
 
-/// A short text for a flight error.
-#[cfg_attr(feature = "no-fix", allow(dead_code))]
-pub fn flight_error(e: &FlightError) -> &'static str {
+/// A short text for a fix error (no `core::fmt` on the target).
+pub fn fix_error(e: &FixError) -> &'static str {
     match e {
-        FlightError::Reproject(_) => "reprojection failed (camera, grid, frame or buffer sizes)",
-        FlightError::Localize(_) => "localization failed (coverage, resolution, prior or buffers)",
-        FlightError::Nn(_) => "CNN failed (too little valid top-down image or flat input)",
-        FlightError::Weights => "shipped CNN weights did not validate",
-        FlightError::BadMapEmbeddings => "map-window embeddings missing or malformed",
-        FlightError::ScratchTooSmall => "scratch buffers too small",
+        FixError::BadConfig { field } => field,
+        FixError::MapProduct(_) => "map product refused",
+        FixError::MapMismatch { what } => what,
+        FixError::Weights(_) => "weight file refused",
+        FixError::PriorOutsideMap => "prior outside the map",
+        FixError::Reproject(_) => "reprojection failed",
+        FixError::Range(_) => "range reprojection failed",
+        FixError::Match(_) => "matching failed",
+        FixError::Nn(_) => "network failed",
+        FixError::ScratchTooSmall { buffer } => buffer,
     }
 }
 

@@ -1,26 +1,39 @@
-//! Tests of the flight budget's host side: report parsing, result comparison, ELF reading,
-//! Thumb branch decoding and the synthetic test vectors with the host's reference run.
+//! Tests of the flight budget's host side: world-rendered test vectors with the host's run of
+//! the one fix, report parsing in the core's result protocol, result comparison, the budget
+//! table, ELF reading and Thumb branch decoding.
 
-use orbfix::flight_run::FlightConfig;
-use orbfix::localize::LocalizeConfig;
+use orbfix::fix::{protocol, FixConfig, Stage};
 use orbfix::reproject::GridSpec;
 use orbfix_host::budget::{self, ElfSizes, Estimate, Vectors};
+use orbfix_host::eval::pipeline::PipelineOptions;
+use orbfix_host::fix::FixRunner;
+use orbfix_host::render::RenderOptions;
 
-/// A small configuration so the tests stay fast: 80 x 80 cells of 0.25 m (20 m).
-fn small_cfg() -> FlightConfig {
-    FlightConfig {
+/// A small stop so the tests stay fast: 160 x 90 frames, an 80-cell top-down grid (20 m) and
+/// a 60 m map (11 x 11 CNN windows).
+fn small() -> (PipelineOptions, FixRunner) {
+    let mut render = RenderOptions::default();
+    render.camera.width_px = 160;
+    render.camera.height_px = 90;
+    let opts = PipelineOptions {
+        render,
         grid: GridSpec::new(80, 0.25),
-        localize: LocalizeConfig::default(),
-    }
-}
-
-fn small_vectors(seed: u64) -> Vectors {
-    Vectors::synthetic(seed, 160, 90, 60.0, 0.25, 80).unwrap()
+        map_px: 240,
+        ..PipelineOptions::default()
+    };
+    let cfg = FixConfig {
+        grid: opts.grid,
+        ..FixConfig::default()
+    };
+    (opts, FixRunner::shipped(cfg))
 }
 
 fn report_text(results: &[(String, String)]) -> String {
-    let mut t = String::from("qemu noise\nORBFIX-FW 1\nSTAGE lut_build 100\nSTAGE reproject 50\n");
-    t += "STAGE localize 1000\nSTAGE nn_embed 20\nSTAGE nn_match 30\nTOTAL 1200\n";
+    let mut t = format!("qemu noise\n{} {}\n", protocol::HEADER, protocol::VERSION);
+    for (i, s) in Stage::ALL.iter().enumerate() {
+        t += &format!("STAGE {} {}\n", s.name(), 100 * (i + 1));
+    }
+    t += "TOTAL 1600\n";
     for (k, v) in results {
         t += &format!("RESULT {k} {v}\n");
     }
@@ -31,9 +44,9 @@ fn report_text(results: &[(String, String)]) -> String {
 #[test]
 fn parses_a_report_and_rejects_broken_ones() {
     let r = budget::parse_report(&report_text(&[("digest".into(), "0x12345678".into())])).unwrap();
-    assert_eq!(r.stages.len(), 5);
-    assert_eq!(r.stages[2], ("localize".to_string(), 1000));
-    assert_eq!(r.total_ticks, 1200);
+    assert_eq!(r.stages.len(), Stage::ALL.len());
+    assert_eq!(r.stages[2], ("nn_embed".to_string(), 300));
+    assert_eq!(r.total_ticks, 1600);
     assert_eq!(r.stack_peak_bytes, 3000);
     assert_eq!(r.stack_region_bytes, 32768);
     assert!(r.ok);
@@ -42,40 +55,41 @@ fn parses_a_report_and_rejects_broken_ones() {
         vec![("digest".to_string(), "0x12345678".to_string())]
     );
     // Truncated (QEMU stopped): no END line.
-    assert!(budget::parse_report("ORBFIX-FW 1\nSTAGE a 1\n").is_err());
+    assert!(budget::parse_report("ORBFIX-FW 2\nSTAGE a 1\n").is_err());
     // Not a report at all.
     assert!(budget::parse_report("hello\n").is_err());
     // Other version, garbage numbers.
-    assert!(budget::parse_report("ORBFIX-FW 2\nEND OK\n").is_err());
-    assert!(budget::parse_report("ORBFIX-FW 1\nSTAGE a x\nEND OK\n").is_err());
+    assert!(budget::parse_report("ORBFIX-FW 1\nEND OK\n").is_err());
+    assert!(budget::parse_report("ORBFIX-FW 2\nSTAGE a x\nEND OK\n").is_err());
     // A failure report parses and says so.
-    let f = budget::parse_report("ORBFIX-FW 1\nEND ERR hard fault\n").unwrap();
+    let f = budget::parse_report("ORBFIX-FW 2\nEND ERR hard fault\n").unwrap();
     assert!(!f.ok);
     assert_eq!(f.errors, vec!["hard fault".to_string()]);
 }
 
 #[test]
-fn host_run_is_deterministic_localizes_and_compares_bit_exactly() {
-    let cfg = small_cfg();
-    let v = small_vectors(3);
-    let a = v.host_run(&cfg).unwrap();
-    let b = small_vectors(3).host_run(&cfg).unwrap();
-    assert_eq!(a, b);
-    assert_eq!(a.digest(), b.digest());
-    // The frames are rendered over the map a few metres from the prior: the fix finds it.
-    let err = (a.fix.x_m - v.truth_m.0).hypot(a.fix.y_m - v.truth_m.1);
-    let prior = (v.pose.x_m - v.truth_m.0).hypot(v.pose.y_m - v.truth_m.1);
-    assert!(
-        err < 0.5 && prior > 1.0,
-        "fix error {err} m, prior off by {prior} m"
-    );
-    // Another seed gives other results.
+fn world_stop_runs_the_fix_deterministically_and_compares_bit_exactly() {
+    let (opts, runner) = small();
+    let v = Vectors::world_stop(2, 0, &opts, &runner.weights).unwrap();
+    assert!(v.depths.is_some(), "the range path has depth images");
+    let a = v.host_run(&runner).unwrap();
+    let b = Vectors::world_stop(2, 0, &opts, &runner.weights)
+        .unwrap()
+        .host_run(&runner)
+        .unwrap();
+    assert_eq!(a.digest, b.digest, "same stop, same digest");
     assert_ne!(
-        small_vectors(4).host_run(&cfg).unwrap().digest(),
-        a.digest()
+        Vectors::world_stop(2, 1, &opts, &runner.weights)
+            .unwrap()
+            .host_run(&runner)
+            .unwrap()
+            .digest,
+        a.digest,
+        "another stop, another digest"
     );
 
-    let expected = budget::host_results(&a);
+    let expected = budget::expected_results(&a.report, a.digest);
+    assert_eq!(expected.len(), protocol::RESULTS);
     let est = Estimate {
         target: "cortex-m7".into(),
         clock_mhz: 100.0,
@@ -89,67 +103,78 @@ fn host_run_is_deterministic_localizes_and_compares_bit_exactly() {
         stack_region_bytes: 32768,
     };
     let report = budget::parse_report(&report_text(&expected)).unwrap();
-    let ok = budget::assemble(&est, &report, &sizes, &cfg, &a, &v, &[]);
+    let stop = |report: &budget::FirmwareReport| {
+        budget::stop_budget(
+            &est,
+            v.source.clone(),
+            report,
+            &a.report,
+            budget::mismatches(report, &expected),
+            v.truth_m,
+            (v.pose.x_m as f64, v.pose.y_m as f64),
+        )
+    };
+    let ok = budget::assemble(&est, vec![stop(&report)], &sizes, true, &[], "cfg".into());
     assert!(ok.bit_exact && ok.panic_free, "{:?}", ok.mismatches);
-    assert_eq!(ok.total_instructions, 1200 * budget::INSTRUCTIONS_PER_TICK);
-    assert_eq!(ok.stages["localize"].instructions, 40_000);
-    assert!((ok.stages["localize"].ms - 0.4).abs() < 1e-9);
+    assert_eq!(ok.vectors, "world");
+    assert_eq!(ok.total_instructions, 1600 * budget::INSTRUCTIONS_PER_TICK);
+    assert_eq!(ok.stages["nn_embed"].instructions, 12_000);
+    assert_eq!(ok.stages["nn_embed"].unit.as_deref(), Some("MAC"));
+    assert!((ok.stages["nn_embed"].ms - 0.12).abs() < 1e-9);
     assert_eq!(ok.working_ram_bytes, 2000 + 3000);
     assert_eq!(ok.working_total_bytes, 2000 + 3000 + 4000);
+    assert!(ok.stops[0].error_m.is_finite());
     let md = ok.markdown("orbfix budget --json x.json");
-    assert!(md.contains("| localize | 40,000 |") && md.contains("bit_exact: true"));
-    // nn_match on the dense 4 m grid, projected from the measured rate: the 60 m map has
-    // 9 x 9 study windows (80 px every 20 px) and 11 x 11 dense ones (every 16 px).
-    assert_eq!(a.nn_windows, 81);
-    let d = ok.nn_match_dense.as_ref().unwrap();
-    assert!(!d.measured);
-    assert_eq!((d.windows, d.measured_windows, d.step_m), (121, 81, 4.0));
-    assert_eq!(d.instructions, 1793); // 1200 instructions / 81 windows x 121, rounded
-    assert_eq!(d.whole_fix_instructions, 48_000 - 1200 + 1793);
-    assert!(md.contains("dense 4 m grid, **projected**") && md.contains("| 1,793 |"));
+    assert!(
+        md.contains("| nn_embed | 12,000 |") && md.contains("bit_exact: true"),
+        "{md}"
+    );
 
-    // One flipped bit in the fix makes it not bit exact, and says where.
+    // One flipped bit in the position makes it not bit exact, and says where.
     let mut bad = expected.clone();
-    let fix = bad.iter_mut().find(|(k, _)| k == "fix").unwrap();
-    let x = u32::from_str_radix(&fix.1[2..10], 16).unwrap() ^ 1;
-    fix.1 = format!("0x{x:08x}{}", &fix.1[10..]);
-    let report = budget::parse_report(&report_text(&bad)).unwrap();
-    let nb = budget::assemble(&est, &report, &sizes, &cfg, &a, &v, &[]);
+    let x = bad.iter_mut().find(|(k, _)| k == "x_m").unwrap();
+    let v0 = u32::from_str_radix(&x.1[2..], 16).unwrap() ^ 1;
+    x.1 = format!("0x{v0:08x}");
+    let nb = budget::assemble(
+        &est,
+        vec![stop(&budget::parse_report(&report_text(&bad)).unwrap())],
+        &sizes,
+        true,
+        &[],
+        "cfg".into(),
+    );
     assert!(!nb.bit_exact);
-    assert_eq!(nb.mismatches, vec!["fix".to_string()]);
+    assert_eq!(nb.mismatches, vec!["stop 0: x_m".to_string()]);
     // A missing result is a mismatch too.
-    let report = budget::parse_report(&report_text(&expected[1..])).unwrap();
-    assert!(!budget::assemble(&est, &report, &sizes, &cfg, &a, &v, &[]).bit_exact);
+    let short = budget::parse_report(&report_text(&expected[1..])).unwrap();
+    assert!(!budget::assemble(&est, vec![stop(&short)], &sizes, true, &[], "c".into()).bit_exact);
 }
 
 #[test]
 fn writes_vectors_the_firmware_can_include() {
     let dir = std::env::temp_dir().join(format!("orbfix-vectors-{}", std::process::id()));
-    let cfg = small_cfg();
-    let v = small_vectors(5);
-    v.write(&dir, &cfg).unwrap();
+    let (opts, runner) = small();
+    let v = Vectors::world_stop(3, 0, &opts, &runner.weights).unwrap();
+    v.write(&dir, &runner.cfg).unwrap();
     let src = std::fs::read_to_string(dir.join("vectors.rs")).unwrap();
     assert!(src.contains("pub const WIDTH: usize = 160;"));
     assert!(src.contains("pub const GRID_N: usize = 80;"));
+    assert!(src.contains("pub const HAS_DEPTH: bool = true;"));
     assert!(src.contains(&format!(
         "f32::from_bits(0x{:08x})",
         v.pose.heading_deg.to_bits()
     )));
     assert_eq!(std::fs::read(dir.join("frames.bin")).unwrap(), v.frames);
-    assert_eq!(std::fs::read(dir.join("map.bin")).unwrap().len(), 240 * 240);
-    let records = 81 * orbfix::nn::window_cosine::WINDOW_RECORD_BYTES;
+    assert_eq!(std::fs::read(dir.join("product.bin")).unwrap(), v.product);
     assert_eq!(
-        std::fs::read(dir.join("map_windows.bin")).unwrap(),
-        v.map_windows
+        std::fs::read(dir.join("depths.bin")).unwrap().len(),
+        4 * 2 * 160 * 90
     );
-    assert_eq!(v.map_windows.len(), records);
-    assert!(src.contains(&format!("pub const MAP_WINDOWS_LEN: usize = {records};")));
+    assert!(src.contains(&format!(
+        "pub const PRODUCT_LEN: usize = {};",
+        v.product.len()
+    )));
     std::fs::remove_dir_all(&dir).unwrap();
-    // Bad sizes are errors, not panics.
-    assert!(Vectors::synthetic(1, 0, 90, 60.0, 0.25, 80).is_err());
-    assert!(Vectors::synthetic(1, 160, 90, f32::NAN, 0.25, 80).is_err());
-    assert!(Vectors::synthetic(1, 160, 90, 60.0, 0.0, 80).is_err());
-    assert!(Vectors::synthetic_with_step(1, 160, 90, 60.0, 0.25, 80, 0).is_err());
 }
 
 #[test]
@@ -190,33 +215,4 @@ fn elf_reader_rejects_non_elf_and_decodes_thumb_branches() {
     }
     // A 16-bit instruction pair is not a branch.
     assert_eq!(budget::thumb_branch_target(0, 0x4770, 0xbf00), None);
-}
-
-#[test]
-fn dense_grid_vectors_score_every_dense_window_and_count_as_measured() {
-    let cfg = small_cfg();
-    let step = orbfix::flight_run::dense_window_step(0.25);
-    let v = Vectors::synthetic_with_step(3, 160, 90, 60.0, 0.25, 80, step).unwrap();
-    assert_eq!(v.window_step_px, 16);
-    let out = v.host_run(&cfg).unwrap();
-    assert_eq!(out.nn_windows, 121);
-    assert!(v.describe().contains("121 CNN map windows every 4 m"));
-    // Same frames and map as the study-grid vectors of the seed: only the CNN part differs.
-    let study = small_vectors(3).host_run(&cfg).unwrap();
-    assert_eq!(
-        (out.fix, out.embedding_hash),
-        (study.fix, study.embedding_hash)
-    );
-    assert_ne!(out.nn_scores_hash, study.nn_scores_hash);
-    let est = Estimate {
-        target: "cortex-m7".into(),
-        clock_mhz: 100.0,
-        cpi: 1.0,
-    };
-    let report = budget::parse_report(&report_text(&budget::host_results(&out))).unwrap();
-    let b = budget::assemble(&est, &report, &ElfSizes::default(), &cfg, &out, &v, &[]);
-    let d = b.nn_match_dense.unwrap();
-    assert!(d.measured && b.bit_exact);
-    assert_eq!((d.windows, d.instructions), (121, 1200));
-    assert_eq!(d.whole_fix_instructions, b.total_instructions);
 }

@@ -56,6 +56,9 @@ pub struct RefineConfig {
     pub levels: [RefineLevel; 2],
     /// Smallest NCC score for which [`RefineMode::Auto`] keeps the NCC position.
     pub min_ncc: f32,
+    /// Rectify the high-passed images (`min(255, 2 |v - 128|)`): edge strength, which a
+    /// change of sun azimuth does not invert, instead of signed shading.
+    pub rectify: bool,
 }
 
 /// Stated error bounds, metres: what the report's `error_bound_m` says for a fix of each
@@ -127,6 +130,7 @@ impl Default for FixConfig {
                     },
                 ],
                 min_ncc: 0.3,
+                rectify: true,
             },
             accept_confidence: 0.15,
             bounds: ErrorBounds {

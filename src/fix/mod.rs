@@ -30,6 +30,7 @@
 pub mod coarse;
 mod config;
 mod digest;
+pub mod protocol;
 pub mod refine;
 mod report;
 mod scratch;

@@ -18,6 +18,17 @@ use crate::matcher::prep::highpass;
 use crate::matcher::{Matcher, OpCounts};
 use crate::peak::peak_offset_2d;
 
+/// Rectifies a high-passed image in place: `min(255, 2 |v - 128|)`.
+fn rectify(img: &mut ImageViewMut<'_>) {
+    for y in 0..img.height() {
+        if let Some(row) = img.row_mut(y) {
+            for v in row.iter_mut() {
+                *v = (2 * (*v as i32 - 128).unsigned_abs()).min(255) as u8;
+            }
+        }
+    }
+}
+
 /// The result of refining one coarse window.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Refined {
@@ -41,10 +52,9 @@ pub struct Templates<'b> {
 }
 
 fn split_image(buf: &mut [u8], w: usize, h: usize) -> Result<(&mut [u8], &mut [u8]), FixError> {
-    if buf.len() < w * h {
-        return Err(FixError::ScratchTooSmall { buffer: "work" });
-    }
-    Ok(buf.split_at_mut(w * h))
+    w.checked_mul(h)
+        .and_then(|len| buf.split_at_mut_checked(len))
+        .ok_or(FixError::ScratchTooSmall { buffer: "work" })
 }
 
 fn view_mut(buf: &mut [u8], w: usize, h: usize) -> Result<ImageViewMut<'_>, FixError> {
@@ -69,6 +79,9 @@ pub fn build_templates<'b>(
     let (hp_top, _) = split_image(phase, n, n)?;
     let mut hp_view = view_mut(hp_top, n, n)?;
     highpass(top, Some(mask), cfg.highpass_radius_px(), &mut hp_view, hp)?;
+    if cfg.refine.rectify {
+        rectify(&mut hp_view);
+    }
     let (a, b) = (layout.a, layout.b);
     let (t0, rest) = split_image(persist, a, a)?;
     let (w0, rest) = split_image(rest, a, a)?;
@@ -96,9 +109,10 @@ pub fn build_templates<'b>(
 /// `[lo, hi]` (top-left map pixels). Returns the first position, the count, and whether
 /// either end was cut short of the reach.
 fn axis_range(centre: usize, reach: usize, step: usize, lo: usize, hi: usize) -> (usize, usize) {
-    let below = ((centre.saturating_sub(lo)) / step).min(reach);
-    let above = ((hi.saturating_sub(centre)) / step).min(reach);
-    (centre - below * step, below + above + 1)
+    let step = step.max(1);
+    let below = (centre.saturating_sub(lo) / step).min(reach);
+    let above = (hi.saturating_sub(centre) / step).min(reach);
+    (centre.saturating_sub(below * step), below + above + 1)
 }
 
 /// Scores one level: the template `(t, w)` at every level pixel of the positions
@@ -161,6 +175,9 @@ pub fn refine_window(
     let (region_buf, rest) = split_image(phase, rw, rh)?;
     let mut region_hp = view_mut(region_buf, rw, rh)?;
     highpass(&region, None, cfg.highpass_radius_px(), &mut region_hp, hp)?;
+    if cfg.refine.rectify {
+        rectify(&mut region_hp);
+    }
     let region_hp = region_hp.as_view();
     // Template top-left positions that keep the template inside the region.
     let (lo_x, hi_x) = (rx, rx + rw - n);
@@ -168,8 +185,8 @@ pub fn refine_window(
 
     // Level 0 around the CNN window.
     let (f0, f1) = (l0.factor, l1.factor);
-    let (x0, c0) = axis_range(wx.clamp(lo_x, hi_x), l0.reach_px, f0, lo_x, hi_x);
-    let (y0, r0) = axis_range(wy.clamp(lo_y, hi_y), l0.reach_px, f0, lo_y, hi_y);
+    let (x0, c0) = axis_range(wx.max(lo_x).min(hi_x), l0.reach_px, f0, lo_x, hi_x);
+    let (y0, r0) = axis_range(wy.max(lo_y).min(hi_y), l0.reach_px, f0, lo_y, hi_y);
     let patch_buf = rest;
     let (bi, _) = score_level(
         &templates.t0,
@@ -183,6 +200,7 @@ pub fn refine_window(
         floats,
         ops,
     )?;
+    let c0 = c0.max(1);
     let (bc, br) = (bi % c0, bi / c0);
     let edge0 = bc == 0 || br == 0 || bc + 1 == c0 || br + 1 == r0;
     let (bx, by) = (x0 + bc * f0, y0 + br * f0);
@@ -202,6 +220,7 @@ pub fn refine_window(
         floats,
         ops,
     )?;
+    let c1 = c1.max(1);
     let (bc, br) = (bi % c1, bi / c1);
     let edge1 = bc == 0 || br == 0 || bc + 1 == c1 || br + 1 == r1;
     let scores = floats.get(..c1 * r1).unwrap_or_default();

@@ -38,8 +38,14 @@ pub fn highpass(
             needed: highpass_buffer_len(w),
         });
     }
-    let (colsum, rest) = scratch.split_at_mut(w);
-    let colcnt = &mut rest[..w];
+    let (colsum, rest) = scratch
+        .split_at_mut_checked(w)
+        .ok_or(MatchError::OutputTooSmall {
+            needed: highpass_buffer_len(w),
+        })?;
+    let colcnt = rest.get_mut(..w).ok_or(MatchError::OutputTooSmall {
+        needed: highpass_buffer_len(w),
+    })?;
     colsum.fill(0);
     colcnt.fill(0);
     let valid = |x: usize, y: usize| -> bool {
@@ -50,14 +56,19 @@ pub fn highpass(
     };
     let add_row = |y: usize, sign: bool, colsum: &mut [u32], colcnt: &mut [u32]| {
         if let Some(row) = src.row(y) {
-            for (x, &v) in row.iter().enumerate() {
+            for (x, ((&v, s), c)) in row
+                .iter()
+                .zip(colsum.iter_mut())
+                .zip(colcnt.iter_mut())
+                .enumerate()
+            {
                 if valid(x, y) {
                     if sign {
-                        colsum[x] += v as u32;
-                        colcnt[x] += 1;
+                        *s += v as u32;
+                        *c += 1;
                     } else {
-                        colsum[x] -= v as u32;
-                        colcnt[x] -= 1;
+                        *s -= v as u32;
+                        *c -= 1;
                     }
                 }
             }
@@ -79,27 +90,27 @@ pub fn highpass(
         };
         // Horizontal running sums over colsum / colcnt.
         let (mut s, mut c) = (0u32, 0u32);
-        for x in 0..radius.min(w) {
-            s += colsum[x];
-            c += colcnt[x];
+        for (cs, cc) in colsum.iter().zip(colcnt.iter()).take(radius.min(w)) {
+            s += cs;
+            c += cc;
         }
         let Some(orow) = out.row_mut(y) else {
             return Err(MatchError::WindowTooSmall);
         };
-        for x in 0..w {
-            if x + radius < w {
-                s += colsum[x + radius];
-                c += colcnt[x + radius];
+        for (x, (o, &v)) in orow.iter_mut().zip(srow).enumerate() {
+            if let (Some(a), Some(b)) = (colsum.get(x + radius), colcnt.get(x + radius)) {
+                s += a;
+                c += b;
             }
-            if x > radius {
-                s -= colsum[x - radius - 1];
-                c -= colcnt[x - radius - 1];
+            if let Some(k) = x.checked_sub(radius + 1) {
+                if let (Some(a), Some(b)) = (colsum.get(k), colcnt.get(k)) {
+                    s -= a;
+                    c -= b;
+                }
             }
-            orow[x] = if valid(x, y) && c > 0 {
-                let mean = ((s + c / 2) / c) as i32;
-                (128 + srow[x] as i32 - mean).clamp(0, 255) as u8
-            } else {
-                128
+            *o = match (s + c / 2).checked_div(c) {
+                Some(mean) if valid(x, y) => (128 + v as i32 - mean as i32).clamp(0, 255) as u8,
+                _ => 128,
             };
         }
     }

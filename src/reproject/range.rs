@@ -564,7 +564,7 @@ impl<'s> RangeAccumulator<'s> {
                 by_q.wrapping_mul(k),
                 bz_q.wrapping_mul(k),
             ];
-            read_all += w.div_ceil(stride) as u64;
+            read_all += w.div_ceil(stride.max(1)) as u64;
             // Monomorphized per limit set so the default (no height band, no range limit)
             // loop keeps its state in registers.
             let used = match (height_band, range_lim) {

@@ -2,8 +2,10 @@
 //! timing and memory budget (docs/timing-budget.md and a JSON file).
 
 use anyhow::{bail, ensure, Context, Result};
-use orbfix::flight_run::FlightConfig;
+use orbfix::fix::FixConfig;
 use orbfix_host::budget::{self, Estimate, Vectors};
+use orbfix_host::eval::pipeline::{PipelineOptions, Reprojection};
+use orbfix_host::fix::FixRunner;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -24,19 +26,10 @@ impl Target {
     }
 }
 
-/// Grids of map windows for the CNN stage.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum CnnGrid {
-    /// 50 m windows every 4 m (the CNN localization's dense response).
-    Dense,
-    /// 50 m windows every 12.5 m (the study's 441 over 300 m).
-    Study,
-}
-
 /// Build the flight firmware, run it in QEMU and write the timing and memory budget.
 ///
-/// Steps: write test vectors (synthetic, deterministic) and compute the host's results with
-/// the same core code; install the cross toolchain if needed (scripts/flight-toolchain.sh);
+/// Steps, per stop: render a rover stop of the world's test zone (frames, depth, the map
+/// product around the prior) and run the core's fix on the host; install the cross toolchain if needed (scripts/flight-toolchain.sh);
 /// build firmware/ for thumbv7em-none-eabihf; run it under
 /// `qemu-system-arm -machine mps2-an500 -icount shift=0`; read per-stage instruction counts,
 /// the stack high-water mark and the results from its semihosting report, and flash and
@@ -68,23 +61,16 @@ pub struct Args {
     /// Environment file from scripts/flight-toolchain.sh [default: run the script].
     #[arg(long)]
     pub toolchain_env: Option<PathBuf>,
-    /// Seed of the synthetic test vectors.
+    /// World seed of the stops (the test zone's generated stops, same sun).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Frame width, pixels.
-    #[arg(long, default_value_t = 640)]
-    pub width: u32,
-    /// Frame height, pixels.
-    #[arg(long, default_value_t = 360)]
-    pub height: u32,
-    /// Side of the orbital map region, metres.
-    #[arg(long, default_value_t = 300.0)]
-    pub map_size_m: f32,
-    /// Map windows the firmware's `nn_match` scores: `dense`, the CNN localization's 4 m
-    /// grid (3969 over 300 m, 8.2 MB of records in external memory), or `study`, the
-    /// study's 12.5 m grid (441; the dense grid is then projected from its per-window rate).
-    #[arg(long, value_enum, default_value_t = CnnGrid::Dense)]
-    pub cnn_grid: CnnGrid,
+    /// Stops measured (each its own firmware build and QEMU run).
+    #[arg(long, default_value_t = 3)]
+    pub stops: usize,
+    /// Geometry of the top-down image: range (depth images, the evaluated default) or lut
+    /// (flat ground).
+    #[arg(long, value_enum, default_value_t = Reprojection::Range)]
+    pub reprojection: Reprojection,
     /// Measure even if the firmware is not panic free (it is then built with its
     /// `allow-panic` feature, and the budget records `panic_free: false` and where).
     #[arg(long)]
@@ -270,79 +256,97 @@ pub fn run(args: Args) -> Result<()> {
         .clone()
         .unwrap_or_else(|| target_dir.join("flight-vectors"));
 
-    let cfg = FlightConfig::default();
-    let step = match args.cnn_grid {
-        CnnGrid::Dense => orbfix::flight_run::dense_window_step(cfg.grid.m_per_px),
-        CnnGrid::Study => orbfix::flight_run::study_window_step(cfg.grid.n),
-    };
-    eprintln!("budget: making test vectors (CNN map windows every {step} px)");
-    let v = Vectors::synthetic_with_step(
-        args.seed,
-        args.width,
-        args.height,
-        args.map_size_m,
-        cfg.grid.m_per_px,
-        cfg.grid.n,
-        step,
-    )?;
-    let host = v.host_run(&cfg)?;
-    v.write(&vectors_dir, &cfg)?;
-    eprintln!(
-        "budget: test vectors in {} ({})",
-        vectors_dir.display(),
-        v.describe()
+    ensure!(
+        (1..=20).contains(&args.stops),
+        "--stops must be 1..=20, got {}",
+        args.stops
     );
-
+    let cfg = FixConfig::default();
+    let opts = PipelineOptions {
+        reprojection: args.reprojection,
+        ..PipelineOptions::default()
+    };
+    let runner = FixRunner::shipped(cfg);
     let env_file = toolchain_env(&repo, args.toolchain_env.clone())?;
-    let (elf, panic_free) = match build_firmware(&repo, &env_file, &vectors_dir, &target_dir, false)
-    {
-        Ok(elf) => (elf, true),
-        Err(BuildError::Other(e)) => return Err(e),
-        Err(BuildError::PanicPath) => {
-            eprintln!(
-                "budget: the firmware does NOT link: a panic path remains in the code it \
-                     runs (no-panic check, docs/flight-target.md); rebuilding with allow-panic \
-                     to find where"
-            );
-            match build_firmware(&repo, &env_file, &vectors_dir, &target_dir, true) {
-                Ok(elf) => (elf, false),
-                Err(BuildError::PanicPath) => {
-                    bail!("the allow-panic build still refers to the panic symbol")
-                }
-                Err(BuildError::Other(e)) => return Err(e),
-            }
-        }
-    };
-    let elf_bytes = std::fs::read(&elf)
-        .with_context(|| format!("cannot read the firmware {}", elf.display()))?;
-    let sites = if panic_free {
-        Vec::new()
-    } else {
-        budget::panic_sites(&elf_bytes)?
-    };
-    if !panic_free {
-        eprintln!("budget: panic paths (caller -> panic function (call sites)):");
-        for (a, b, n) in &sites {
-            eprintln!("  {a} -> {b} ({n})");
-        }
-        if !args.allow_panic {
-            bail!(
-                "the firmware is not panic free ({} call sites above); fix them, or pass \
-                 --allow-panic to measure anyway (the budget then records panic_free: false)",
-                sites.iter().map(|s| s.2).sum::<usize>()
-            );
-        }
-    }
-    let sizes = budget::elf_sizes(&elf_bytes)?;
-
-    let (code, text) = run_qemu(&elf, Duration::from_secs(args.qemu_timeout_s))?;
-    let report = budget::parse_report(&text)?;
     let est = Estimate {
         target: args.target.name().to_string(),
         clock_mhz: args.clock_mhz,
         cpi: args.cpi,
     };
-    let mut b = budget::assemble(&est, &report, &sizes, &cfg, &host, &v, &sites);
+    let mut stops = Vec::new();
+    let mut all_ok = true;
+    let mut panic_free = true;
+    let mut sites = Vec::new();
+    let mut sizes = budget::ElfSizes::default();
+    for i in 0..args.stops {
+        eprintln!(
+            "budget: stop {i}: rendering from world seed {} (test zone)",
+            args.seed
+        );
+        let v = Vectors::world_stop(args.seed, i, &opts, &runner.weights)?;
+        let host = v.host_run(&runner)?;
+        v.write(&vectors_dir, &cfg)?;
+        eprintln!("budget: stop {i}: {}", v.source);
+        let (elf, free) = match build_firmware(&repo, &env_file, &vectors_dir, &target_dir, false) {
+            Ok(elf) => (elf, true),
+            Err(BuildError::Other(e)) => return Err(e),
+            Err(BuildError::PanicPath) => {
+                eprintln!(
+                    "budget: the firmware does NOT link: a panic path remains in the code it                      runs (no-panic check, docs/flight-target.md); rebuilding with allow-panic                      to find where"
+                );
+                match build_firmware(&repo, &env_file, &vectors_dir, &target_dir, true) {
+                    Ok(elf) => (elf, false),
+                    Err(BuildError::PanicPath) => {
+                        bail!("the allow-panic build still refers to the panic symbol")
+                    }
+                    Err(BuildError::Other(e)) => return Err(e),
+                }
+            }
+        };
+        let elf_bytes = std::fs::read(&elf)
+            .with_context(|| format!("cannot read the firmware {}", elf.display()))?;
+        if !free {
+            panic_free = false;
+            sites = budget::panic_sites(&elf_bytes)?;
+            eprintln!("budget: panic paths (caller -> panic function (call sites)):");
+            for (a, b, n) in &sites {
+                eprintln!("  {a} -> {b} ({n})");
+            }
+            if !args.allow_panic {
+                bail!(
+                    "the firmware is not panic free ({} call sites above); fix them, or pass                      --allow-panic to measure anyway (the budget then records panic_free: false)",
+                    sites.iter().map(|s| s.2).sum::<usize>()
+                );
+            }
+        }
+        sizes = budget::elf_sizes(&elf_bytes)?;
+        let (code, text) = run_qemu(&elf, Duration::from_secs(args.qemu_timeout_s))?;
+        let report = budget::parse_report(&text)?;
+        if !report.ok {
+            eprintln!(
+                "budget: stop {i}: the firmware reported failure ({:?}; QEMU exit code {code:?})",
+                report.errors
+            );
+            all_ok = false;
+        }
+        let expected = budget::expected_results(&host.report, host.digest);
+        let mism = budget::mismatches(&report, &expected);
+        let stop = budget::stop_budget(
+            &est,
+            v.source.clone(),
+            &report,
+            &host.report,
+            mism,
+            v.truth_m,
+            (v.pose.x_m as f64, v.pose.y_m as f64),
+        );
+        eprintln!(
+            "budget: stop {i}: {} instructions, fix error {:.3} m ({}, {}), bit_exact {}",
+            stop.instructions, stop.error_m, stop.status, stop.path, stop.bit_exact
+        );
+        stops.push(stop);
+    }
+    let mut b = budget::assemble(&est, stops, &sizes, all_ok, &sites, format!("{cfg:?}"));
     if !panic_free && b.panic_sites.is_empty() {
         // The link failed on the panic symbol but no call site was decoded: still not free.
         b.panic_free = false;
@@ -350,10 +354,12 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     let command = format!(
-        "orbfix budget --target {} --clock-mhz {} --cpi {} --json {}{}",
+        "orbfix budget --target {} --clock-mhz {} --cpi {} --seed {} --stops {} --json {}{}",
         est.target,
         args.clock_mhz,
         args.cpi,
+        args.seed,
+        args.stops,
         args.json.display(),
         if args.allow_panic {
             " --allow-panic"
@@ -365,31 +371,17 @@ pub fn run(args: Args) -> Result<()> {
         .md
         .clone()
         .unwrap_or_else(|| repo.join("docs/timing-budget.md"));
-    budget::write_atomic(&md, b.markdown(&command).as_bytes())?;
+    orbfix_host::fsutil::write_atomic(&md, b.markdown(&command).as_bytes())?;
     let json = serde_json::to_string_pretty(&b).context("cannot serialize the budget")?;
-    budget::write_atomic(&args.json, json.as_bytes())?;
+    orbfix_host::fsutil::write_atomic(&args.json, json.as_bytes())?;
     eprintln!("budget: wrote {} and {}", md.display(), args.json.display());
     println!(
         "total {} instructions ({:.2} ms at {} MHz, CPI {}), working RAM {} B (static {} + stack {}), flash {} B, bit_exact {}",
         b.total_instructions, b.total_ms, b.clock_mhz, b.cpi, b.working_ram_bytes, b.static_ram_bytes,
         b.stack_peak_bytes, b.flash_bytes, b.bit_exact
     );
-    if let Some(d) = &b.nn_match_dense {
-        println!(
-            "nn_match on the dense {} m grid ({}): {} windows x {:.1} instructions = {} instructions; whole fix {} instructions",
-            d.step_m,
-            if d.measured { "measured" } else { "projected from the measured rate" },
-            d.windows,
-            d.instructions_per_window,
-            d.instructions,
-            d.whole_fix_instructions
-        );
-    }
-    if !report.ok {
-        bail!(
-            "the firmware reported failure ({:?}; QEMU exit code {code:?})",
-            report.errors
-        );
+    if !b.firmware_ok {
+        bail!("the firmware reported failure on at least one stop (messages above)");
     }
     if !b.bit_exact {
         bail!(

@@ -1,16 +1,19 @@
 //! `orbfix demo`: the README's main command. On the built-in world, with no files needed:
-//! a handful of rover stops in the test zone, each rendered, reprojected and localized with
-//! the best matcher available; prints a table and writes the pictures.
+//! a handful of rover stops in the test zone, each rendered and localized by the flight
+//! core's one fix (`orbfix::fix::run`, matcher `fix`; a baseline matcher on request); prints
+//! a table and writes the pictures.
 
 use anyhow::Context;
 use orbfix::localize::{nearest_window, rank_of, LocalizeConfig};
+use orbfix_host::eval::fix_figure::{fix_svg, FixMarks};
 use orbfix_host::eval::pipeline::{
-    make_queries, render_query, Condition, PipelineOptions, Reprojection,
+    make_queries, render_query_full, Condition, PipelineOptions, Reprojection,
 };
 use orbfix_host::eval::{
-    best_matcher, localize_top_down, matcher_by_name, overlay, save_png_atomic, window_cell_scores,
-    write_atomic, MATCHERS,
+    best_matcher, fix_config_by_name, localize_fix, localize_top_down, matcher_by_name, overlay,
+    save_png_atomic, window_cell_scores, write_atomic, MATCHERS,
 };
+use orbfix_host::fix::{build_map_product, FixRunner, MapProductOptions};
 use orbfix_host::world::World;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -28,9 +31,13 @@ pub struct Args {
     /// World seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Matcher (default: the best available).
+    /// Matcher: fix (default: the flight core's one fix), fix-ncc, fix-signed, cnn, or a
+    /// baseline (ncc-hp2, ncc, l1, l2, ...).
     #[arg(long)]
     pub matcher: Option<String>,
+    /// CNN weight file (.ofw) [default: the shipped weights/matcher-v1.ofw].
+    #[arg(long)]
+    pub weights: Option<PathBuf>,
     /// Top-down reprojection: range (the flight core's range path: pixels at their true 3D
     /// points from millimetre depth images) or lut (the flight core's flat-ground table,
     /// which relief distorts beyond ~10 m; see docs/results.md).
@@ -50,6 +57,9 @@ struct Row {
     error_m: f64,
     confidence: f64,
     on_border: bool,
+    status: String,
+    path: String,
+    error_bound_m: Option<f64>,
     true_window_rank: usize,
     true_cell_rank: usize,
     render_s: f64,
@@ -62,8 +72,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .matcher
         .clone()
         .unwrap_or_else(|| best_matcher().to_string());
-    let spec = matcher_by_name(&name)
-        .with_context(|| format!("--matcher (available: {})", MATCHERS.join(", ")))?;
+    let fix_cfg = fix_config_by_name(&name);
+    let spec = match fix_cfg {
+        Some(_) => None,
+        None => Some(
+            matcher_by_name(&name)
+                .with_context(|| format!("--matcher (available: {})", MATCHERS.join(", ")))?,
+        ),
+    };
+    let weights = super::eval::load_weights(a.weights.as_deref())?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create the output folder {}", a.out.display()))?;
     let world = World::new(a.seed);
@@ -85,26 +102,67 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     );
     println!(
-        "{:>4}  {:>19}  {:>19}  {:>8}  {:>5}  {:>4}  {:>4}  {:>8}  {:>8}",
+        "{:>4}  {:>19}  {:>19}  {:>8}  {:>7}  {:>5}  {:<9}  {:>4}  {:>4}  {:>8}  {:>8}",
         "stop",
         "truth x, y (m)",
         "fix x, y (m)",
         "error m",
+        "bound m",
         "conf",
+        "status",
         "win",
         "cell",
         "render s",
-        "local. s"
+        "fix ms"
     );
     let mut rows = Vec::new();
     for q in &queries {
         let t0 = Instant::now();
-        let (top, map) = render_query(&world, q, &opts)?;
+        let (obs, top, map) = render_query_full(&world, q, &opts)?;
         let render_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let loc = localize_top_down(&spec, &top, &map, (q.prior_x_m, q.prior_y_m), &cfg, 50)
-            .with_context(|| format!("stop {}", q.id))?;
-        let localize_s = t1.elapsed().as_secs_f64();
+        let loc = match (&spec, fix_cfg) {
+            (None, Some(mut cfg)) => {
+                cfg.grid = opts.grid;
+                cfg.range = opts.range;
+                let product = build_map_product(
+                    &map,
+                    &weights,
+                    &MapProductOptions {
+                        window_px: opts.grid.n,
+                        sun_deg: Some((
+                            q.sun_map.elevation_deg as f32,
+                            q.sun_map.azimuth_deg as f32,
+                        )),
+                        ..MapProductOptions::default()
+                    },
+                )?;
+                let runner = FixRunner {
+                    weights: weights.clone(),
+                    cfg,
+                };
+                localize_fix(
+                    &runner,
+                    &obs,
+                    &map,
+                    &product,
+                    (q.prior_x_m, q.prior_y_m),
+                    50,
+                )
+                .with_context(|| format!("stop {}", q.id))?
+                .0
+            }
+            (Some(spec), _) => {
+                localize_top_down(spec, &top, &map, (q.prior_x_m, q.prior_y_m), &cfg, 50)
+                    .with_context(|| format!("stop {}", q.id))?
+            }
+            (None, None) => anyhow::bail!("no matcher"),
+        };
+        // The fix alone (the map product is the ground segment's work, made here per stop).
+        let localize_s = match loc.fix_report {
+            Some(_) => loc.dense_s,
+            None => t1.elapsed().as_secs_f64(),
+        };
         let tw = nearest_window(
             &loc.window_grid,
             &map.geo,
@@ -117,20 +175,30 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let cell_rank = rank_of(&window_cell_scores(&loc), tw).unwrap_or(usize::MAX);
         let fix = (loc.fix.x_m as f64, loc.fix.y_m as f64);
         let err = ((fix.0 - q.x_m).powi(2) + (fix.1 - q.y_m).powi(2)).sqrt();
+        let (status, path, bound) = match &loc.fix_report {
+            Some(r) => (
+                r.status.name().to_string(),
+                r.path.name().to_string(),
+                Some(r.error_bound_m as f64),
+            ),
+            None => ("-".to_string(), "-".to_string(), None),
+        };
         println!(
-            "{:>4}  {:>9.2},{:>9.2}  {:>9.2},{:>9.2}  {:>8.2}  {:>5.2}  {:>4}  {:>4}  {:>8.2}  {:>8.3}{}",
+            "{:>4}  {:>9.2},{:>9.2}  {:>9.2},{:>9.2}  {:>8.2}  {:>7}  {:>5.2}  {:<9}  {:>4}  {:>4}  {:>8.2}  {:>8.1}{}",
             q.id,
             q.x_m,
             q.y_m,
             fix.0,
             fix.1,
             err,
+            bound.map_or("-".to_string(), |b| format!("{b:.2}")),
             loc.fix.confidence,
+            status,
             rank + 1,
             cell_rank + 1,
             render_s,
-            localize_s,
-            if loc.fix.on_border {
+            1000.0 * localize_s,
+            if loc.fix.on_border && loc.fix_report.is_none() {
                 "  (border: rejected)"
             } else {
                 ""
@@ -140,16 +208,32 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             &overlay::top_down_picture(&top),
             &a.out.join(format!("stop_{:02}_topdown.png", q.id)),
         )?;
-        save_png_atomic(
-            &overlay::map_picture(
-                &map,
-                &loc,
-                top.n,
-                Some((q.x_m, q.y_m)),
-                (q.prior_x_m, q.prior_y_m),
-                2,
-            ),
-            &a.out.join(format!("stop_{:02}_map.png", q.id)),
+        let svg = fix_svg(
+            &map,
+            &loc,
+            top.n,
+            &FixMarks {
+                truth: Some((q.x_m, q.y_m)),
+                prior: (q.prior_x_m, q.prior_y_m),
+                bound_m: bound.unwrap_or(f64::NAN),
+                title: format!(
+                    "stop {}: {name}, error {:.2} m{}",
+                    q.id,
+                    err,
+                    if status == "-" {
+                        String::new()
+                    } else {
+                        format!(
+                            " ({status}, {path} path, confidence {:.2})",
+                            loc.fix.confidence
+                        )
+                    }
+                ),
+            },
+        )?;
+        write_atomic(
+            &a.out.join(format!("stop_{:02}_map.svg", q.id)),
+            svg.as_bytes(),
         )?;
         rows.push(Row {
             stop: q.id,
@@ -159,6 +243,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             error_m: err,
             confidence: loc.fix.confidence as f64,
             on_border: loc.fix.on_border,
+            status,
+            path,
+            error_bound_m: bound,
             true_window_rank: rank + 1,
             true_cell_rank: cell_rank + 1,
             render_s,
@@ -174,7 +261,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         serde_json::to_string_pretty(&json)?.as_bytes(),
     )?;
     println!(
-        "win = rank of the true 50 m window among the study's 441 (each scored at its position), cell = its rank by the best dense score in its 12.5 m cell; pictures: {} (map: heat = response, green x = truth, red ring = fix, orange = other candidates, blue + = prior, yellow = 5 best windows)",
+        "bound = the fix's stated error bound; status: ok / ambiguous / no-data / on-border; win = rank of the true 50 m window among the study's 441 (fix: ranked by the best coarse score in its 12.5 m cell), cell = its rank by the best dense score in its cell; pictures in {}: stop_NN_topdown.png (the top-down image), stop_NN_map.svg (map with the CNN response, truth, fix, error bound, candidates, legend)",
         a.out.display()
     );
     Ok(())

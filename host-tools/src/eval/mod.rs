@@ -10,6 +10,7 @@
 //! the study's 441-window search and the coarse-to-fine dense localizer.
 
 pub mod figures;
+pub mod fix_figure;
 pub mod metrics;
 pub mod overlay;
 pub mod pipeline;
@@ -26,11 +27,19 @@ use std::time::Instant;
 
 /// Names of the matchers reported, best first for `demo`. `fix` is the flight core's one
 /// fix ([`orbfix::fix::run`], default [`FixConfig`]); `fix-ncc` the same with the NCC
-/// refinement always kept; `cnn` the same with only the CNN's sub-cell peak (the bare
-/// CNN). The others are baselines on the core's top-down image: masked NCC (`ncc-hp2`:
+/// refinement always kept; `fix-signed` with the signed (not rectified) high-pass in the
+/// refinement; `cnn` the same with only the CNN's sub-cell peak (the bare CNN). The others are baselines on the core's top-down image: masked NCC (`ncc-hp2`:
 /// after a 2 m masked high-pass; see [`matcher_by_name`] for the option grammar), L1, L2.
 pub const MATCHERS: &[&str] = &[
-    "fix", "fix-ncc", "cnn", "ncc-hp2", "ncc", "ncc-dist", "l1", "l2",
+    "fix",
+    "fix-ncc",
+    "fix-signed",
+    "cnn",
+    "ncc-hp2",
+    "ncc",
+    "ncc-dist",
+    "l1",
+    "l2",
 ];
 
 /// The matcher `demo` uses: the best one available.
@@ -45,6 +54,10 @@ pub fn fix_config_by_name(name: &str) -> Option<FixConfig> {
     cfg.refine.mode = match name {
         "fix" => RefineMode::Auto,
         "fix-ncc" => RefineMode::Ncc,
+        "fix-signed" => {
+            cfg.refine.rectify = false;
+            RefineMode::Auto
+        }
         "cnn" => RefineMode::Cnn,
         _ => return None,
     };

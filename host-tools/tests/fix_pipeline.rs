@@ -1,0 +1,250 @@
+//! The one fix (`orbfix::fix::run`) end to end on stops rendered from the world: it finds
+//! the rover, its paths and statuses mean what they say, and bad input is a clear error or
+//! "no data", never a panic or a silent wrong answer.
+
+use orbfix::fix::{FixConfig, FixPath, FixStatus, RefineMode};
+use orbfix::map_product::{CrcCheck, MapProduct};
+use orbfix_host::eval::pipeline::{map_region, observe_raw, PipelineOptions, Reprojection};
+use orbfix_host::eval::MapRegion;
+use orbfix_host::fix::{build_map_product, FixRunner, MapProductOptions};
+use orbfix_host::render::Sun;
+use orbfix_host::world::{zones, World};
+
+struct Stop {
+    obs: orbfix_host::eval::pipeline::Observation,
+    map: MapRegion,
+    product: Vec<u8>,
+    truth: (f64, f64),
+    prior: (f64, f64),
+}
+
+/// A stop in the test zone of world 4 with a 120 m map around a prior 17 m off.
+fn stop(reprojection: Reprojection) -> Stop {
+    let world = World::new(4);
+    let z = zones::zone(zones::Split::Test);
+    let truth = (z.x_min_m + 300.0, z.y_min_m + 420.0);
+    let prior = (truth.0 + 12.0, truth.1 - 12.0);
+    let opts = PipelineOptions {
+        reprojection,
+        map_px: 480,
+        ..PipelineOptions::default()
+    };
+    let obs = observe_raw(&world, truth.0, truth.1, 63.0, Sun::default(), &opts).unwrap();
+    let map = map_region(
+        &world,
+        prior.0,
+        prior.1,
+        480,
+        0.25,
+        Sun::default(),
+        &opts.render,
+    )
+    .unwrap();
+    let product = build_map_product(
+        &map,
+        orbfix::nn::model::SHIPPED_WEIGHTS,
+        &MapProductOptions::default(),
+    )
+    .unwrap();
+    Stop {
+        obs,
+        map,
+        product,
+        truth,
+        prior,
+    }
+}
+
+fn run(s: &Stop, cfg: FixConfig) -> orbfix_host::fix::FixOutcome {
+    let mut pose = s.obs.pose;
+    pose.x_m = s.prior.0 as f32;
+    pose.y_m = s.prior.1 as f32;
+    FixRunner::shipped(cfg)
+        .run(
+            &s.obs.params,
+            &pose,
+            s.obs.frames().unwrap(),
+            s.obs.depths.as_ref(),
+            &s.product,
+        )
+        .unwrap()
+}
+
+fn error(s: &Stop, r: &orbfix::fix::FixReport) -> f64 {
+    (r.x_m as f64 - s.truth.0).hypot(r.y_m as f64 - s.truth.1)
+}
+
+#[test]
+fn the_fix_finds_the_rover_and_says_how() {
+    let s = stop(Reprojection::Range);
+    let out = run(&s, FixConfig::default());
+    let r = &out.report;
+    assert_eq!(r.status, FixStatus::Ok, "{r:?}");
+    assert_eq!(r.path, FixPath::Ncc);
+    let e = error(&s, r);
+    assert!(e < 0.5, "fix error {e} m");
+    assert!(
+        e <= r.error_bound_m as f64,
+        "error {e} beyond the stated bound"
+    );
+    assert!(r.reprojection.range && r.coverage_permille > 300);
+    assert_eq!(r.windows as usize, 18 * 18);
+    assert!(r.ops.embed_macs > 0 && r.ops.match_elements > 0 && r.ops.refine_macs > 0);
+    // The bare CNN: its sub-cell peak, coarser but in the right cell.
+    let mut cnn = FixConfig::default();
+    cnn.refine.mode = RefineMode::Cnn;
+    let c = run(&s, cnn).report;
+    assert_eq!(c.path, FixPath::Cnn);
+    assert!(error(&s, &c) < 3.0, "cnn error {}", error(&s, &c));
+    assert_eq!(c.ops.refine_macs, 0);
+    // Deterministic, and the redundant embedding agrees with the first.
+    let mut checked = FixConfig::default();
+    checked.self_check.redundant_embed = true;
+    checked.self_check.verify_map_crc = true;
+    let again = run(&s, checked);
+    assert_eq!(again.report.x_m, r.x_m);
+    assert_eq!(again.report.status, FixStatus::Ok);
+}
+
+#[test]
+fn flat_ground_path_runs_the_same_function() {
+    let s = stop(Reprojection::Lut);
+    let r = run(&s, FixConfig::default()).report;
+    assert!(!r.reprojection.range);
+    assert!(r.ops.lut_cells > 0);
+    assert_ne!(r.status, FixStatus::NoData);
+}
+
+#[test]
+fn bad_input_is_an_error_or_no_data() {
+    let s = stop(Reprojection::Range);
+    let runner = FixRunner::shipped(FixConfig::default());
+    let mut pose = s.obs.pose;
+    pose.x_m = s.prior.0 as f32;
+    pose.y_m = s.prior.1 as f32;
+    let frames = s.obs.frames().unwrap();
+    // No cameras at all: no data, at the prior.
+    let none = runner
+        .run(
+            &s.obs.params,
+            &pose,
+            [None; 4],
+            s.obs.depths.as_ref(),
+            &s.product,
+        )
+        .unwrap()
+        .report;
+    assert_eq!(none.status, FixStatus::NoData);
+    assert_eq!((none.x_m, none.y_m), (pose.x_m, pose.y_m));
+    // One camera missing: still a fix.
+    let three = runner
+        .run(
+            &s.obs.params,
+            &pose,
+            [frames[0], None, frames[2], frames[3]],
+            s.obs.depths.as_ref(),
+            &s.product,
+        )
+        .unwrap()
+        .report;
+    assert_ne!(three.status, FixStatus::NoData);
+    // Black frames: no data.
+    let w = s.obs.params.width_px as usize * s.obs.params.height_px as usize;
+    let black = vec![0u8; w];
+    let bv = orbfix::image::ImageView::new(
+        &black,
+        s.obs.params.width_px as usize,
+        s.obs.params.height_px as usize,
+    )
+    .unwrap();
+    let dark = runner
+        .run(
+            &s.obs.params,
+            &pose,
+            [Some(bv); 4],
+            s.obs.depths.as_ref(),
+            &s.product,
+        )
+        .unwrap()
+        .report;
+    assert_eq!(dark.status, FixStatus::NoData);
+    // A NaN heading is refused.
+    let mut nan = pose;
+    nan.heading_deg = f32::NAN;
+    let e = runner
+        .run(
+            &s.obs.params,
+            &nan,
+            frames,
+            s.obs.depths.as_ref(),
+            &s.product,
+        )
+        .unwrap_err();
+    assert!(e.to_string().contains("reprojection"), "{e}");
+    // A prior outside the map.
+    let mut far = pose;
+    far.x_m += 1000.0;
+    let e = runner
+        .run(
+            &s.obs.params,
+            &far,
+            frames,
+            s.obs.depths.as_ref(),
+            &s.product,
+        )
+        .unwrap_err();
+    assert!(e.to_string().contains("outside the map"), "{e}");
+    // A damaged map product: caught by the CRC when checked, and by the structure always.
+    let mut bad = s.product.clone();
+    bad[5000] ^= 0x10;
+    let mut crc = FixConfig::default();
+    crc.self_check.verify_map_crc = true;
+    let e = FixRunner::shipped(crc)
+        .run(&s.obs.params, &pose, frames, s.obs.depths.as_ref(), &bad)
+        .unwrap_err();
+    assert!(e.to_string().contains("damaged"), "{e}");
+    let e = runner
+        .run(
+            &s.obs.params,
+            &pose,
+            frames,
+            s.obs.depths.as_ref(),
+            &s.product[..s.product.len() - 7],
+        )
+        .unwrap_err();
+    assert!(e.to_string().contains("map product"), "{e}");
+    // Records made with other weights are refused.
+    let mut other = orbfix::nn::model::SHIPPED_WEIGHTS.to_vec();
+    let n = other.len();
+    other[20] ^= 1;
+    let c = orbfix::nn::weights::crc32(&other[..n - 4]);
+    other[n - 4..].copy_from_slice(&c.to_le_bytes());
+    if orbfix::nn::model::SiameseNet::from_bytes(&other).is_ok() {
+        let e = FixRunner {
+            weights: other,
+            cfg: FixConfig::default(),
+        }
+        .run(
+            &s.obs.params,
+            &pose,
+            frames,
+            s.obs.depths.as_ref(),
+            &s.product,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("other weights"), "{e}");
+    }
+    // Depth images of the wrong size.
+    let small = [
+        vec![0u16; 10],
+        vec![0u16; 10],
+        vec![0u16; 10],
+        vec![0u16; 10],
+    ];
+    assert!(runner
+        .run(&s.obs.params, &pose, frames, Some(&small), &s.product)
+        .is_err());
+    // The product's own header checks.
+    assert!(MapProduct::parse(&s.product, CrcCheck::Verify).is_ok());
+    assert_eq!(s.map.width, 480);
+}
