@@ -1,8 +1,7 @@
 #!/usr/bin/env bash
-# Regenerates docs/matcher-results.md: `orbfix eval` of the classical matchers and the CNN
-# (shipped int8 weights; also the float checkpoint `cnn-f32` when $ORBFIX_CNN_F32, default
-# runs/matcher-dense/checkpoint.safetensors, exists) on the test zone, same sun and cross sun,
-# range reprojection; then the tables. Usage: bash scripts/cnn-results.sh [QUERIES] [SEED]
+# Regenerates docs/matcher-results.md: `orbfix eval` of the classical matchers, the bare CNN
+# (`cnn`: the core's fix with only the CNN's sub-cell peak, shipped int8 weights) and the whole
+# fix (`fix`) on the test zone, same sun and cross sun, range reprojection; then the tables. Usage: bash scripts/cnn-results.sh [QUERIES] [SEED]
 # (defaults 60, 1). About 8 minutes per condition for 60 queries on 2 cores (release).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,13 +13,7 @@ mkdir -p "$OUT"
 cargo build --release -p orbfix-host
 BIN=target/release/orbfix
 [ -n "${CARGO_TARGET_DIR:-}" ] && BIN="$CARGO_TARGET_DIR/release/orbfix"
-export ORBFIX_CNN_F32="${ORBFIX_CNN_F32:-runs/matcher-dense/checkpoint.safetensors}"
-MATCHERS="ncc,ncc-hp2,cnn"
-if [ -f "$ORBFIX_CNN_F32" ]; then
-  MATCHERS="ncc,ncc-hp2,cnn-f32,cnn"
-else
-  echo "no float checkpoint at $ORBFIX_CNN_F32: cnn-f32 left out (see docs/matcher.md to train it)" >&2
-fi
+MATCHERS="ncc,ncc-hp2,cnn,fix"
 for cond in same-sun cross-sun; do
   "$BIN" eval --seed "$SEED" --queries "$Q" --matcher "$MATCHERS" --condition "$cond" \
     --reprojection range --json "$OUT/eval_range_${cond}.json" --figures "$OUT/fig_${cond}" --examples 2

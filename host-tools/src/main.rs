@@ -32,6 +32,8 @@ enum Command {
     BenchLocalize(cmd::bench_localize::Args),
     /// Write docs/results.md from the reports of scripts/results.sh.
     Results(cmd::results::Args),
+    /// Pool eval reports of several seeds into the fix's accuracy table (scripts/fix-results.sh).
+    FixReport(cmd::fix_report::Args),
     /// Reproject a dataset location's four views to a north-up top-down image (core LUT).
     Reproject(cmd::reproject::Args),
     /// Print the terrain elevation (metres) at a world point of the built-in world.
@@ -63,6 +65,7 @@ fn main() -> anyhow::Result<()> {
         Command::Demo(a) => cmd::demo::run(a)?,
         Command::Localize(a) => cmd::localize::run(a)?,
         Command::Eval(a) => cmd::eval::run(a)?,
+        Command::FixReport(a) => cmd::fix_report::run(a)?,
         Command::Map(a) => cmd::map::run(a)?,
         Command::BenchLocalize(a) => cmd::bench_localize::run(a)?,
         Command::Results(a) => cmd::results::run(a)?,

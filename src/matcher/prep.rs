@@ -38,6 +38,9 @@ pub fn highpass(
             needed: highpass_buffer_len(w),
         });
     }
+    if mask.is_none() {
+        return highpass_unmasked(src, radius, out, scratch);
+    }
     let (colsum, rest) = scratch
         .split_at_mut_checked(w)
         .ok_or(MatchError::OutputTooSmall {
@@ -117,6 +120,69 @@ pub fn highpass(
     Ok(())
 }
 
+/// [`highpass`] without a mask: every pixel valid, so a box's count is its clipped area
+/// (rows times columns) and only the column sums are kept. Same result to the bit.
+fn highpass_unmasked(
+    src: &ImageView<'_>,
+    radius: usize,
+    out: &mut ImageViewMut<'_>,
+    scratch: &mut [u32],
+) -> Result<(), MatchError> {
+    let (w, h) = (src.width(), src.height());
+    let colsum = scratch.get_mut(..w).ok_or(MatchError::OutputTooSmall {
+        needed: highpass_buffer_len(w),
+    })?;
+    colsum.fill(0);
+    let add = |y: usize, colsum: &mut [u32]| {
+        if let Some(row) = src.row(y) {
+            for (s, &v) in colsum.iter_mut().zip(row) {
+                *s += v as u32;
+            }
+        }
+    };
+    let sub = |y: usize, colsum: &mut [u32]| {
+        if let Some(row) = src.row(y) {
+            for (s, &v) in colsum.iter_mut().zip(row) {
+                *s -= v as u32;
+            }
+        }
+    };
+    for y in 0..radius.min(h) {
+        add(y, colsum);
+    }
+    for y in 0..h {
+        if y + radius < h {
+            add(y + radius, colsum);
+        }
+        if let Some(k) = y.checked_sub(radius.saturating_add(1)) {
+            sub(k, colsum);
+        }
+        let rows = (y + radius).min(h - 1) + 1 - y.saturating_sub(radius);
+        let (Some(srow), Some(orow)) = (src.row(y), out.row_mut(y)) else {
+            return Err(MatchError::WindowTooSmall);
+        };
+        let mut s: u32 = colsum.iter().take(radius.min(w)).sum();
+        for (x, (o, &v)) in orow.iter_mut().zip(srow).enumerate() {
+            if let Some(a) = colsum.get(x + radius) {
+                s += a;
+            }
+            if let Some(a) = x
+                .checked_sub(radius.saturating_add(1))
+                .and_then(|k| colsum.get(k))
+            {
+                s -= a;
+            }
+            let cols = (x + radius).min(w - 1) + 1 - x.saturating_sub(radius);
+            let c = (rows * cols) as u32;
+            *o = match (s + c / 2).checked_div(c) {
+                Some(mean) => (128 + v as i32 - mean as i32).clamp(0, 255) as u8,
+                None => 128,
+            };
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -138,6 +204,30 @@ mod tests {
         highpass(&src, None, 2, &mut o, &mut scratch).unwrap();
         assert!((out[5 * 20 + 5] as i32 - 128).abs() <= 1);
         assert!(out[10 * 20 + 10] > 200);
+        // The unmasked path equals the masked one with an all-valid mask, for every radius.
+        let all = [255u8; 400];
+        let av = ImageView::new(&all, 20, 20).unwrap();
+        for r in [1, 2, 5, 19, 40] {
+            let mut a = [0u8; 400];
+            let mut b = [0u8; 400];
+            highpass(
+                &src,
+                None,
+                r,
+                &mut ImageViewMut::new(&mut a, 20, 20).unwrap(),
+                &mut scratch,
+            )
+            .unwrap();
+            highpass(
+                &src,
+                Some(&av),
+                r,
+                &mut ImageViewMut::new(&mut b, 20, 20).unwrap(),
+                &mut scratch,
+            )
+            .unwrap();
+            assert_eq!(a, b, "radius {r}");
+        }
         // Brute-force reference with a mask.
         let mut m = [255u8; 400];
         m[3 * 20 + 4] = 0;

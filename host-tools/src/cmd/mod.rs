@@ -5,6 +5,7 @@ pub mod bench_localize;
 pub mod budget;
 pub mod demo;
 pub mod eval;
+pub mod fix_report;
 pub mod generate;
 pub mod localize;
 pub mod map;
