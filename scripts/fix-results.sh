@@ -2,7 +2,7 @@
 # Accuracy of the one fix (`orbfix::fix::run`, default FixConfig) and of the bare CNN on world
 # seeds never used in development: STOPS stops per seed and condition in the test zone, range
 # reprojection (truth depth), same sun and cross sun; then docs/fix-results.md.
-# Usage: bash scripts/fix-results.sh [STOPS] [SEEDS] [REPROJECTION]
+# Usage: bash scripts/fix-results.sh [STOPS] [SEEDS] [REPROJECTION]   ($ORBFIX_BIN: a built orbfix)
 #   defaults: 100 "2 3 4" range   (about 25 minutes per 300 stops on 2 cores, release)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,9 +12,12 @@ SEEDS="${2:-2 3 4}"
 REP="${3:-range}"
 OUT=out/fix-results-$REP
 mkdir -p "$OUT"
-cargo build --release -p orbfix-host
-BIN=target/release/orbfix
-[ -n "${CARGO_TARGET_DIR:-}" ] && BIN="$CARGO_TARGET_DIR/release/orbfix"
+BIN="${ORBFIX_BIN:-}"
+if [ -z "$BIN" ]; then
+  cargo build --release -p orbfix-host
+  BIN=target/release/orbfix
+  [ -n "${CARGO_TARGET_DIR:-}" ] && BIN="$CARGO_TARGET_DIR/release/orbfix"
+fi
 for seed in $SEEDS; do
   for cond in same-sun cross-sun; do
     f="$OUT/eval_${REP}_seed${seed}_${cond}.json"

@@ -112,7 +112,12 @@ impl Default for FixConfig {
     fn default() -> Self {
         Self {
             grid: GridSpec::default(),
-            range: RangeOptions::default(),
+            // Rows near the mast read every 4th pixel at most (half a cell apart on flat
+            // ground): the range path's per-pixel work drops by about 3x for the same fix.
+            range: RangeOptions {
+                max_column_stride: 4,
+                ..RangeOptions::default()
+            },
             min_coverage_permille: 50,
             nms_radius_m: 12.5,
             refine: RefineConfig {

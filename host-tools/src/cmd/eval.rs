@@ -63,8 +63,8 @@ pub struct Args {
     #[arg(long, default_value_t = 0.0)]
     pub depth_noise_k: f64,
     /// Range path: largest column stride (1 = every pixel; up to 16: rows near the mast
-    /// read every s-th pixel, at most half a cell apart on flat ground).
-    #[arg(long, default_value_t = 1)]
+    /// read every s-th pixel, at most half a cell apart on flat ground; 4 = the fix's default).
+    #[arg(long, default_value_t = 4)]
     pub column_stride: u8,
     /// Diagnostic: a world with zero relief and the same albedo.
     #[arg(long)]

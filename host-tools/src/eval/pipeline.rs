@@ -50,7 +50,7 @@ impl Default for PipelineOptions {
             grid: GridSpec::default(),
             map_px: 1200,
             depth_noise: None,
-            range: reproject::RangeOptions::default(),
+            range: orbfix::fix::FixConfig::default().range,
         }
     }
 }
