@@ -10,6 +10,7 @@ pub mod dataset;
 pub mod depth;
 pub mod eval;
 pub mod fsutil;
+pub mod geotiff;
 pub mod nn;
 pub mod render;
 pub mod reproject_bench;
