@@ -79,7 +79,7 @@ impl GeoKeys {
             let e = &dir[4 + 4 * k..8 + 4 * k];
             let (id, loc, count, off) = (e[0], e[1], e[2] as usize, e[3] as usize);
             let v = match loc {
-                0 => KeyValue::Short(off),
+                0 => KeyValue::Short(e[3]),
                 TAG_GEO_DOUBLE_PARAMS => KeyValue::Doubles(
                     doubles
                         .get(off..off + count)
