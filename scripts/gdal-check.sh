@@ -13,7 +13,10 @@ set -u
 cd "$(dirname "$0")/.."
 source scripts/env.sh
 
-if ! command -v gdalinfo >/dev/null 2>&1 || ! python3 -c "from osgeo import gdal" 2>/dev/null; then
+# python3-gdal is Debian's: use the system interpreter (a pyenv or venv python3 lacks osgeo).
+PY=/usr/bin/python3
+has_gdal() { command -v gdalinfo >/dev/null 2>&1 && "$PY" -c "from osgeo import gdal" 2>/dev/null; }
+if ! has_gdal; then
   echo "gdal-check: installing gdal-bin and python3-gdal" >&2
   SUDO=""; [ "$(id -u)" = 0 ] || SUDO=sudo
   $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq gdal-bin python3-gdal >/dev/null \
@@ -55,7 +58,7 @@ for i in 1 2 3; do
   case $i in 1) px=2968.25; py=2031.75;; 2) px=3000.25; py=1999.75;; 3) px=3031.75; py=1968.25;; esac
   "$ORBFIX" elevation --seed 1 --x $px --y $py > "$T/elev$i.txt"
 done
-check "gdalinfo: DEM georeference, size, type, CRS = IAU_2015:30110" python3 - "$T" <<'EOF'
+check "gdalinfo: DEM georeference, size, type, CRS = IAU_2015:30110" "$PY" - "$T" <<'EOF'
 import json, subprocess, sys
 from osgeo import osr
 t = sys.argv[1]
@@ -74,7 +77,7 @@ for f, typ in (("dem.tif", "Float32"), ("ortho.tif", "Byte")):
     c = j["cornerCoordinates"]
     assert c["upperLeft"] == [2968.0, 2032.0] and c["lowerRight"] == [3032.0, 1968.0], c
 EOF
-check "gdallocationinfo: DEM values = orbfix elevation at pixel centres" python3 - "$T" <<'EOF'
+check "gdallocationinfo: DEM values = orbfix elevation at pixel centres" "$PY" - "$T" <<'EOF'
 import subprocess, sys
 t = sys.argv[1]
 pts = [(2968.25, 2031.75), (3000.25, 1999.75), (3031.75, 1968.25)]
@@ -83,7 +86,7 @@ for i, (x, y) in enumerate(pts, 1):
     o = float(open(f"{t}/elev{i}.txt").read())
     assert abs(g - o) < 1e-3, (x, y, g, o)
 EOF
-check "python3-gdal: orthoimage pixels = orbfix map's PNG of the same region" python3 - "$T" <<'EOF'
+check "python3-gdal: orthoimage pixels = orbfix map's PNG of the same region" "$PY" - "$T" <<'EOF'
 import sys
 from osgeo import gdal
 import numpy as np
@@ -96,7 +99,7 @@ assert a.std() > 5, a.std()
 EOF
 
 # ---------------------------------------------------------------- GDAL -> orbfix
-python3 - "$T" <<'EOF' || ko "python3-gdal writes the test files"
+"$PY" - "$T" <<'EOF' || ko "python3-gdal writes the test files"
 import sys
 from osgeo import gdal, osr
 import numpy as np
@@ -142,7 +145,7 @@ for f in g_f32_tiled g_f32_point g_i16_iau g_u16 g_u8; do
   "$ORBFIX" geotiff-info "$T/$f.tif" --pixel 0,0 --pixel 9,7 --pixel 99,79 --pixel 41,3 > "$T/$f.json" 2>"$T/$f.err" \
     || echo "{\"error\": \"$(tr -d '"\n' < "$T/$f.err")\"}" > "$T/$f.json"
 done
-check "orbfix reads GDAL's files: origin, pixel size, CRS, samples, no-data, values" python3 - "$T" <<'EOF'
+check "orbfix reads GDAL's files: origin, pixel size, CRS, samples, no-data, values" "$PY" - "$T" <<'EOF'
 import json, sys
 from osgeo import gdal
 t = sys.argv[1]
@@ -191,7 +194,7 @@ refused "refuses a file without a CRS" "$T/r_nocrs.tif" "no GeoKeyDirectoryTag"
 gdal_translate -q -co TILED=YES -co COMPRESS=LZW -mo AREA_OR_POINT=Point "$T/dem.tif" "$T/dem_gdal.tif"
 "$ORBFIX" geotiff-info "$T/dem.tif" --pixel 0,0 --pixel 64,64 --pixel 127,127 > "$T/a.json"
 "$ORBFIX" geotiff-info "$T/dem_gdal.tif" --pixel 0,0 --pixel 64,64 --pixel 127,127 > "$T/b.json"
-check "orbfix export -> gdal_translate (tiled, LZW, PixelIsPoint) -> orbfix: same georeference and values" python3 - "$T" <<'EOF'
+check "orbfix export -> gdal_translate (tiled, LZW, PixelIsPoint) -> orbfix: same georeference and values" "$PY" - "$T" <<'EOF'
 import json, sys
 t = sys.argv[1]
 a, b = (json.load(open(f"{t}/{n}.json")) for n in "ab")

@@ -112,7 +112,7 @@ pub fn read_geotiff(path: &Path) -> Result<GeoRaster, GeoTiffError> {
         }
     }
     let f64s = |dec: &mut Decoder<_>, tag: u16| -> Result<Option<Vec<f64>>, GeoTiffError> {
-        match dec.find_tag(Tag::Unknown(tag)) {
+        match dec.find_tag(Tag::from_u16_exhaustive(tag)) {
             Ok(Some(v)) => v.into_f64_vec().map(Some).map_err(tiff_err),
             Ok(None) => Ok(None),
             Err(e) => Err(tiff_err(e)),
@@ -121,7 +121,7 @@ pub fn read_geotiff(path: &Path) -> Result<GeoRaster, GeoTiffError> {
     let scale = f64s(&mut dec, TAG_MODEL_PIXEL_SCALE)?;
     let ties = f64s(&mut dec, TAG_MODEL_TIEPOINT)?;
     let transform = f64s(&mut dec, TAG_MODEL_TRANSFORMATION)?;
-    let dir = match dec.find_tag(Tag::Unknown(TAG_GEO_KEY_DIRECTORY)) {
+    let dir = match dec.find_tag(Tag::from_u16_exhaustive(TAG_GEO_KEY_DIRECTORY)) {
         Ok(Some(v)) => v.into_u16_vec().map_err(tiff_err)?,
         Ok(None) => {
             return Err(unsupported(
@@ -133,7 +133,7 @@ pub fn read_geotiff(path: &Path) -> Result<GeoRaster, GeoTiffError> {
         Err(e) => return Err(tiff_err(e)),
     };
     let doubles = f64s(&mut dec, TAG_GEO_DOUBLE_PARAMS)?.unwrap_or_default();
-    let ascii = match dec.find_tag(Tag::Unknown(TAG_GEO_ASCII_PARAMS)) {
+    let ascii = match dec.find_tag(Tag::from_u16_exhaustive(TAG_GEO_ASCII_PARAMS)) {
         Ok(Some(v)) => v.into_string().map_err(tiff_err)?,
         Ok(None) => String::new(),
         Err(e) => return Err(tiff_err(e)),
@@ -147,7 +147,7 @@ pub fn read_geotiff(path: &Path) -> Result<GeoRaster, GeoTiffError> {
         crs.raster_type,
     )
     .map_err(unsupported)?;
-    let nodata = match dec.find_tag(Tag::Unknown(TAG_GDAL_NODATA)) {
+    let nodata = match dec.find_tag(Tag::from_u16_exhaustive(TAG_GDAL_NODATA)) {
         Ok(Some(v)) => {
             let s = v.into_string().map_err(tiff_err)?;
             let t = s.trim_matches(|c: char| c.is_whitespace() || c == '\0');

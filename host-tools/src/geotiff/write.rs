@@ -62,11 +62,11 @@ where
     let (scale, tie) = geo.to_tags();
     let (dir, doubles, ascii) = world_crs_keys();
     let d = img.encoder();
-    d.write_tag(Tag::Unknown(TAG_MODEL_PIXEL_SCALE), &scale[..])?;
-    d.write_tag(Tag::Unknown(TAG_MODEL_TIEPOINT), &tie[..])?;
-    d.write_tag(Tag::Unknown(TAG_GEO_KEY_DIRECTORY), &dir[..])?;
-    d.write_tag(Tag::Unknown(TAG_GEO_DOUBLE_PARAMS), &doubles[..])?;
-    d.write_tag(Tag::Unknown(TAG_GEO_ASCII_PARAMS), ascii.as_str())?;
+    d.write_tag(Tag::from_u16_exhaustive(TAG_MODEL_PIXEL_SCALE), &scale[..])?;
+    d.write_tag(Tag::from_u16_exhaustive(TAG_MODEL_TIEPOINT), &tie[..])?;
+    d.write_tag(Tag::from_u16_exhaustive(TAG_GEO_KEY_DIRECTORY), &dir[..])?;
+    d.write_tag(Tag::from_u16_exhaustive(TAG_GEO_DOUBLE_PARAMS), &doubles[..])?;
+    d.write_tag(Tag::from_u16_exhaustive(TAG_GEO_ASCII_PARAMS), ascii.as_str())?;
     img.write_data(data)?;
     Ok(buf.into_inner())
 }
