@@ -123,7 +123,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             let zone = world.dem().and_then(|d| d.location_zone(margin)).with_context(|| {
                 format!("the DEM and orthoimage overlap less than {} m per side (rover stops keep {margin} m from their edges)", 2.0 * margin)
             })?;
-            let queries = orbfix_host::eval::pipeline::make_queries_in(&zone, 0.0, cfg.seed, cfg.queries, cfg.condition);
+            let queries = orbfix_host::eval::pipeline::make_queries_in(
+                &zone,
+                0.0,
+                cfg.seed,
+                cfg.queries,
+                cfg.condition,
+            );
             orbfix_host::eval::run::run_eval_on(&world, &queries, &cfg, !a.quiet)?
         }
         _ => run_eval(&cfg, !a.quiet)?,

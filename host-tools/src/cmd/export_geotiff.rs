@@ -10,9 +10,11 @@ use std::path::PathBuf;
 
 /// Write a region of the procedural world as DEM + orthoimage GeoTIFFs.
 #[derive(clap::Args, Debug)]
-#[command(after_help = "Example: orbfix export-geotiff --seed 1 --x 3000 --y 2000 --size-m 600 \
+#[command(
+    after_help = "Example: orbfix export-geotiff --seed 1 --x 3000 --y 2000 --size-m 600 \
                   --out-dem out/dem.tif --out-ortho out/ortho.tif\n\
-                  Check: gdalinfo out/dem.tif; gdallocationinfo -geoloc out/dem.tif 3000 2000")]
+                  Check: gdalinfo out/dem.tif; gdallocationinfo -geoloc out/dem.tif 3000 2000"
+)]
 pub struct Args {
     /// World seed.
     #[arg(long, default_value_t = 1)]
@@ -74,8 +76,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let g32 = geo
         .to_georef()
         .map_err(|e| anyhow::anyhow!("georeference for the renderer: {e:?}"))?;
-    let img = render_ortho(&world, &g32, n as u32, n as u32, sun, &RenderOptions::default())
-        .context("rendering the orthoimage")?;
+    let img = render_ortho(
+        &world,
+        &g32,
+        n as u32,
+        n as u32,
+        sun,
+        &RenderOptions::default(),
+    )
+    .context("rendering the orthoimage")?;
     write_ortho_u8(&a.out_ortho, n, n, img.as_raw(), &geo)?;
     bar.finish_and_clear();
     let [w, s, e, nn] = geo.extent(n, n);

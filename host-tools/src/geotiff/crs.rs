@@ -68,7 +68,10 @@ impl GeoKeys {
             return Err(bad("shorter than its 4-value header"));
         }
         if dir[0] != 1 {
-            return Err(bad(&format!("key directory version {} (expected 1)", dir[0])));
+            return Err(bad(&format!(
+                "key directory version {} (expected 1)",
+                dir[0]
+            )));
         }
         let n = dir[3] as usize;
         if dir.len() < 4 + 4 * n {
@@ -265,12 +268,12 @@ pub fn world_crs_keys() -> (Vec<u16>, Vec<f64>, String) {
             GEOG_CITATION_TEXT.len() as u16,
             gt_citation.len() as u16,
         ],
-        [2050, 0, 1, USER_DEFINED],    // GeogGeodeticDatumGeoKey
+        [2050, 0, 1, USER_DEFINED],       // GeogGeodeticDatumGeoKey
         [GEOG_ANGULAR_UNITS, 0, 1, 9102], // degree
-        [2056, 0, 1, USER_DEFINED],    // GeogEllipsoidGeoKey
-        [2057, d, 1, 5],               // GeogSemiMajorAxisGeoKey
-        [2058, d, 1, 6],               // GeogSemiMinorAxisGeoKey
-        [2061, d, 1, 7],               // GeogPrimeMeridianLongGeoKey
+        [2056, 0, 1, USER_DEFINED],       // GeogEllipsoidGeoKey
+        [2057, d, 1, 5],                  // GeogSemiMajorAxisGeoKey
+        [2058, d, 1, 6],                  // GeogSemiMinorAxisGeoKey
+        [2061, d, 1, 7],                  // GeogPrimeMeridianLongGeoKey
         [PROJECTED_CS_TYPE, 0, 1, USER_DEFINED],
         [3074, 0, 1, USER_DEFINED], // ProjectionGeoKey
         [3075, 0, 1, 17],           // ProjCoordTransGeoKey = CT_Equirectangular
@@ -327,14 +330,19 @@ mod tests {
         let feet = keys(&[[GT_MODEL_TYPE, 0, 1, 1], [PROJ_LINEAR_UNITS, 0, 1, 9002]]);
         assert!(Crs::from_keys(&feet).unwrap_err().contains("not metre"));
         let unknown = keys(&[[GT_MODEL_TYPE, 0, 1, 1], [PROJECTED_CS_TYPE, 0, 1, 2263]]);
-        assert!(Crs::from_keys(&unknown).unwrap_err().contains("cannot tell its unit"));
+        assert!(Crs::from_keys(&unknown)
+            .unwrap_err()
+            .contains("cannot tell its unit"));
         let utm = keys(&[
             [GT_MODEL_TYPE, 0, 1, 1],
             [GT_RASTER_TYPE, 0, 1, 2],
             [PROJECTED_CS_TYPE, 0, 1, 32633],
         ]);
         let c = Crs::from_keys(&utm).unwrap();
-        assert_eq!((c.epsg, c.raster_type), (Some(32633), RasterType::PixelIsPoint));
+        assert_eq!(
+            (c.epsg, c.raster_type),
+            (Some(32633), RasterType::PixelIsPoint)
+        );
         assert_eq!(c.describe(), "EPSG:32633");
         assert!(GeoKeys::parse(&[1, 1, 0, 3], &[], "").is_err());
     }

@@ -189,10 +189,12 @@ impl Georeference {
                     .into())
             }
             _ => {
-                return Err("the file has no georeference (neither ModelPixelScaleTag + \
+                return Err(
+                    "the file has no georeference (neither ModelPixelScaleTag + \
                      ModelTiepointTag nor ModelTransformationTag): assign one with \
                      gdal_translate -a_ullr / -a_srs"
-                    .into())
+                        .into(),
+                )
             }
         };
         if raster_type == RasterType::PixelIsPoint {
@@ -231,11 +233,13 @@ mod tests {
     fn tiepoint_scale_area_and_point() {
         let s = [0.5, 0.5, 0.0];
         let t = [2.0, 4.0, 0.0, 1000.0, 2000.0, 0.0];
-        let g = Georeference::from_tags(Some(&s), Some(&t), None, RasterType::PixelIsArea)
-            .unwrap();
-        assert_eq!((g.origin_x_m(), g.origin_y_m(), g.m_per_px()), (999.0, 2002.0, 0.5));
-        let p = Georeference::from_tags(Some(&s), Some(&t), None, RasterType::PixelIsPoint)
-            .unwrap();
+        let g = Georeference::from_tags(Some(&s), Some(&t), None, RasterType::PixelIsArea).unwrap();
+        assert_eq!(
+            (g.origin_x_m(), g.origin_y_m(), g.m_per_px()),
+            (999.0, 2002.0, 0.5)
+        );
+        let p =
+            Georeference::from_tags(Some(&s), Some(&t), None, RasterType::PixelIsPoint).unwrap();
         assert_eq!((p.origin_x_m(), p.origin_y_m()), (998.75, 2002.25));
         // The centre of pixel (2, 4) is the tie point's model point for PixelIsPoint.
         assert_eq!(p.to_model(2.5, 4.5), (1000.0, 2000.0));
@@ -247,7 +251,10 @@ mod tests {
             2.0, 0.0, 0.0, 10.0, 0.0, -2.0, 0.0, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0,
         ];
         let g = Georeference::from_tags(None, None, Some(&m), RasterType::PixelIsArea).unwrap();
-        assert_eq!((g.origin_x_m(), g.origin_y_m(), g.m_per_px()), (10.0, 20.0, 2.0));
+        assert_eq!(
+            (g.origin_x_m(), g.origin_y_m(), g.m_per_px()),
+            (10.0, 20.0, 2.0)
+        );
         let mut rot = m;
         rot[1] = 0.1;
         let e = Georeference::from_tags(None, None, Some(&rot), RasterType::PixelIsArea);

@@ -147,17 +147,18 @@ pub fn read_geotiff(path: &Path) -> Result<GeoRaster, GeoTiffError> {
         crs.raster_type,
     )
     .map_err(unsupported)?;
-    let nodata = match dec.find_tag(Tag::from_u16_exhaustive(TAG_GDAL_NODATA)) {
-        Ok(Some(v)) => {
-            let s = v.into_string().map_err(tiff_err)?;
-            let t = s.trim_matches(|c: char| c.is_whitespace() || c == '\0');
-            Some(t.parse::<f64>().map_err(|_| {
-                unsupported(format!("GDAL no-data value '{t}' is not a number"))
-            })?)
-        }
-        Ok(None) => None,
-        Err(e) => return Err(tiff_err(e)),
-    };
+    let nodata =
+        match dec.find_tag(Tag::from_u16_exhaustive(TAG_GDAL_NODATA)) {
+            Ok(Some(v)) => {
+                let s = v.into_string().map_err(tiff_err)?;
+                let t = s.trim_matches(|c: char| c.is_whitespace() || c == '\0');
+                Some(t.parse::<f64>().map_err(|_| {
+                    unsupported(format!("GDAL no-data value '{t}' is not a number"))
+                })?)
+            }
+            Ok(None) => None,
+            Err(e) => return Err(tiff_err(e)),
+        };
     let (values, kind) = match dec.read_image().map_err(tiff_err)? {
         DecodingResult::U8(v) => (v.into_iter().map(f32::from).collect(), SampleKind::U8),
         DecodingResult::U16(v) => (v.into_iter().map(f32::from).collect(), SampleKind::U16),

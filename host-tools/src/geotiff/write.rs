@@ -2,7 +2,9 @@
 //! compressed, strips, georeferenced by ModelPixelScaleTag + ModelTiepointTag (PixelIsArea)
 //! in the CRS of the procedural world ([`super::crs::world_crs_keys`]). Written atomically.
 
-use super::crs::{world_crs_keys, TAG_GEO_ASCII_PARAMS, TAG_GEO_DOUBLE_PARAMS, TAG_GEO_KEY_DIRECTORY};
+use super::crs::{
+    world_crs_keys, TAG_GEO_ASCII_PARAMS, TAG_GEO_DOUBLE_PARAMS, TAG_GEO_KEY_DIRECTORY,
+};
 use super::georef::{Georeference, TAG_MODEL_PIXEL_SCALE, TAG_MODEL_TIEPOINT};
 use crate::fsutil::write_atomic;
 use anyhow::Context;
@@ -56,8 +58,8 @@ where
     );
     let (w, h) = (u32::try_from(width)?, u32::try_from(height)?);
     let mut buf = Cursor::new(Vec::new());
-    let mut enc = TiffEncoder::new(&mut buf)?
-        .with_compression(Compression::Deflate(DeflateLevel::Balanced));
+    let mut enc =
+        TiffEncoder::new(&mut buf)?.with_compression(Compression::Deflate(DeflateLevel::Balanced));
     let mut img = enc.new_image::<C>(w, h)?;
     let (scale, tie) = geo.to_tags();
     let (dir, doubles, ascii) = world_crs_keys();
@@ -65,8 +67,14 @@ where
     d.write_tag(Tag::from_u16_exhaustive(TAG_MODEL_PIXEL_SCALE), &scale[..])?;
     d.write_tag(Tag::from_u16_exhaustive(TAG_MODEL_TIEPOINT), &tie[..])?;
     d.write_tag(Tag::from_u16_exhaustive(TAG_GEO_KEY_DIRECTORY), &dir[..])?;
-    d.write_tag(Tag::from_u16_exhaustive(TAG_GEO_DOUBLE_PARAMS), &doubles[..])?;
-    d.write_tag(Tag::from_u16_exhaustive(TAG_GEO_ASCII_PARAMS), ascii.as_str())?;
+    d.write_tag(
+        Tag::from_u16_exhaustive(TAG_GEO_DOUBLE_PARAMS),
+        &doubles[..],
+    )?;
+    d.write_tag(
+        Tag::from_u16_exhaustive(TAG_GEO_ASCII_PARAMS),
+        ascii.as_str(),
+    )?;
     img.write_data(data)?;
     Ok(buf.into_inner())
 }

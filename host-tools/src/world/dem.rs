@@ -111,7 +111,12 @@ impl DemTerrain {
             dem.crs.describe(),
             ortho.crs.describe()
         );
-        let valid: Vec<f32> = dem.values.iter().copied().filter(|v| !dem.is_nodata(*v)).collect();
+        let valid: Vec<f32> = dem
+            .values
+            .iter()
+            .copied()
+            .filter(|v| !dem.is_nodata(*v))
+            .collect();
         anyhow::ensure!(
             !valid.is_empty(),
             "the DEM has no valid height (all pixels are no-data)"
@@ -121,7 +126,10 @@ impl DemTerrain {
         let oe = ortho.georef.extent(ortho.width, ortho.height);
         let far = de.iter().any(|v| v.abs() > LOCAL_LIMIT_M);
         let offset = if far {
-            ((de[0] / 1000.0).floor() * 1000.0, (de[1] / 1000.0).floor() * 1000.0)
+            (
+                (de[0] / 1000.0).floor() * 1000.0,
+                (de[1] / 1000.0).floor() * 1000.0,
+            )
         } else {
             (0.0, 0.0)
         };
@@ -175,7 +183,10 @@ impl DemTerrain {
             w: ortho.width,
             h: ortho.height,
             geo: local(&ortho.georef)?,
-            v: lin.iter().map(|&v| (v as f64 * k).min(1.0) as f32).collect(),
+            v: lin
+                .iter()
+                .map(|&v| (v as f64 * k).min(1.0) as f32)
+                .collect(),
         };
         let mut albedo = vec![base];
         while let Some(last) = albedo.last() {
@@ -257,7 +268,10 @@ impl DemTerrain {
         if !(x.is_finite() && y.is_finite()) {
             return (self.fill_m, 0.0);
         }
-        (self.height.bilinear_clamped(x, y), self.albedo_at(x, y, footprint_m))
+        (
+            self.height.bilinear_clamped(x, y),
+            self.albedo_at(x, y, footprint_m),
+        )
     }
 
     fn albedo_at(&self, x: f64, y: f64, footprint_m: f64) -> f64 {
@@ -352,18 +366,34 @@ mod tests {
     fn heights_bilinear_albedo_normalized() {
         let geo = Georeference::new(100.0, 200.0, 2.0).unwrap();
         // Height = 3 * col + 5 * row (a plane), one no-data pixel.
-        let mut hv: Vec<f32> = (0..16).map(|i| (3 * (i % 4) + 5 * (i / 4)) as f32).collect();
+        let mut hv: Vec<f32> = (0..16)
+            .map(|i| (3 * (i % 4) + 5 * (i / 4)) as f32)
+            .collect();
         hv[15] = -9999.0;
         let dem = raster(4, 4, geo, hv, SampleKind::F32);
-        let ov: Vec<f32> = (0..64).map(|i| if i % 2 == 0 { 200.0 } else { 100.0 }).collect();
-        let ortho = raster(8, 8, Georeference::new(100.0, 200.0, 1.0).unwrap(), ov, SampleKind::U8);
+        let ov: Vec<f32> = (0..64)
+            .map(|i| if i % 2 == 0 { 200.0 } else { 100.0 })
+            .collect();
+        let ortho = raster(
+            8,
+            8,
+            Georeference::new(100.0, 200.0, 1.0).unwrap(),
+            ov,
+            SampleKind::U8,
+        );
         let t = DemTerrain::from_rasters(&dem, &ortho).unwrap();
         // Between pixel centres (0,0) at (101, 199) and (1,1) at (103, 197): 1.5 + 2.5.
         let (h, _) = t.sample(102.0, 198.0, 0.0);
         assert!((h - 4.0).abs() < 1e-9, "{h}");
         // Outside: clamped to the edge pixel.
         assert_eq!(t.sample(50.0, 199.0, 0.0).0, 0.0);
-        assert_eq!(t.fill_height_m(), (0..15).map(|i| (3 * (i % 4) + 5 * (i / 4)) as f64).sum::<f64>() / 15.0);
+        assert_eq!(
+            t.fill_height_m(),
+            (0..15)
+                .map(|i| (3 * (i % 4) + 5 * (i / 4)) as f64)
+                .sum::<f64>()
+                / 15.0
+        );
         // Albedo: mean of the base level is the procedural mean; a wide footprint gives it.
         let mean = t.albedo[0].v.iter().map(|&v| v as f64).sum::<f64>() / 64.0;
         assert!((mean - 0.12).abs() < 1e-6, "{mean}");
@@ -394,9 +424,15 @@ mod tests {
         let g = w.sample_grid(124.0, 455.0, 1.0, 3, 2);
         assert_eq!(g.height_m, vec![11.0, 12.0, 13.0, 21.0, 22.0, 23.0]);
         assert!(g.albedo.iter().all(|&a| (a - 0.12).abs() < 1e-6));
-        assert!(w.craters_in(0.0, 0.0, 100.0, 100.0, 1.0).unwrap().is_empty());
+        assert!(w
+            .craters_in(0.0, 0.0, 100.0, 100.0, 1.0)
+            .unwrap()
+            .is_empty());
         let mut other = ortho.clone();
         other.crs.epsg = Some(32633);
-        assert!(DemTerrain::from_rasters(&dem, &other).unwrap_err().to_string().contains("reproject"));
+        assert!(DemTerrain::from_rasters(&dem, &other)
+            .unwrap_err()
+            .to_string()
+            .contains("reproject"));
     }
 }
