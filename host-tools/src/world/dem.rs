@@ -443,7 +443,11 @@ mod tests {
         let world = World::new(1);
         let geo = Georeference::new(3000.0, 2016.0, 0.5).unwrap();
         let g = world.sample_grid(3000.0, 2016.0, 0.5, 32, 32);
-        let gray: Vec<u8> = g.albedo.iter().map(|a| (a * 1000.0).min(255.0) as u8).collect();
+        let gray: Vec<u8> = g
+            .albedo
+            .iter()
+            .map(|a| (a * 1000.0).min(255.0) as u8)
+            .collect();
         let (dp, op) = (dir.path().join("d.tif"), dir.path().join("o.tif"));
         write_dem_f32(&dp, 32, 32, &g.height_m, &geo).unwrap();
         write_ortho_u8(&op, 32, 32, &gray, &geo).unwrap();
@@ -456,8 +460,14 @@ mod tests {
         }
         let pose = crate::render::ground_pose(&d, 3008.0, 2008.0, 0.0);
         assert!((pose.ground_z_m as f64 - d.height_m(3008.0, 2008.0)).abs() < 2.0);
-        let dark = gray.iter().position(|&v| v == *gray.iter().min().unwrap()).unwrap();
-        let bright = gray.iter().position(|&v| v == *gray.iter().max().unwrap()).unwrap();
+        let dark = gray
+            .iter()
+            .position(|&v| v == *gray.iter().min().unwrap())
+            .unwrap();
+        let bright = gray
+            .iter()
+            .position(|&v| v == *gray.iter().max().unwrap())
+            .unwrap();
         let at = |i: usize| {
             let (x, y) = g.pixel_centre(i % 32, i / 32);
             d.albedo(x, y)
