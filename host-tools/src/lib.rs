@@ -11,6 +11,7 @@ pub mod depth;
 pub mod eval;
 pub mod fix;
 pub mod fsutil;
+pub mod geotiff;
 pub mod nn;
 pub mod render;
 pub mod reproject_bench;

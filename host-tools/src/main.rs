@@ -54,6 +54,10 @@ enum Command {
     Train(cmd::train::Args),
     /// Quantize a trained matcher to int8 and write the core's weight file.
     Quantize(cmd::quantize::Args),
+    /// Write a region of the built-in world as DEM + orthoimage GeoTIFFs (GDAL, QGIS).
+    ExportGeotiff(cmd::export_geotiff::Args),
+    /// Print what orbfix reads from a GeoTIFF (georeference, CRS, values) as JSON.
+    GeotiffInfo(cmd::geotiff_info::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -77,6 +81,8 @@ fn main() -> anyhow::Result<()> {
         Command::Budget(args) => cmd::budget::run(args)?,
         Command::Train(a) => cmd::train::run(a)?,
         Command::Quantize(a) => cmd::quantize::run(a)?,
+        Command::ExportGeotiff(a) => cmd::export_geotiff::run(a)?,
+        Command::GeotiffInfo(a) => cmd::geotiff_info::run(a)?,
     }
     Ok(())
 }

@@ -69,6 +69,13 @@ pub struct Args {
     /// Diagnostic: a world with zero relief and the same albedo.
     #[arg(long)]
     pub flat_world: bool,
+    /// A real DEM (single-band GeoTIFF, projected CRS in metres) instead of the built-in
+    /// world; rover stops are drawn inside it (docs/interop-geotiff.md). Needs --ortho.
+    #[arg(long, requires = "ortho", conflicts_with = "flat_world")]
+    pub dem: Option<PathBuf>,
+    /// The orthoimage GeoTIFF drawn as albedo over --dem.
+    #[arg(long, requires = "dem")]
+    pub ortho: Option<PathBuf>,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -114,7 +121,25 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         flat_world: a.flat_world,
         weights: load_weights(a.weights.as_deref())?,
     };
-    let out = run_eval(&cfg, !a.quiet)?;
+    let out = match (&a.dem, &a.ortho) {
+        (Some(dem), Some(ortho)) => {
+            let world = orbfix_host::world::World::from_geotiff(dem, ortho)?;
+            let margin = orbfix_host::eval::pipeline::PRIOR_OFFSET_M
+                + 0.5 * cfg.pipeline.map_px as f64 * cfg.pipeline.grid.m_per_px as f64;
+            let zone = world.dem().and_then(|d| d.location_zone(margin)).with_context(|| {
+                format!("the DEM and orthoimage overlap less than {} m per side (rover stops keep {margin} m from their edges)", 2.0 * margin)
+            })?;
+            let queries = orbfix_host::eval::pipeline::make_queries_in(
+                &zone,
+                0.0,
+                cfg.seed,
+                cfg.queries,
+                cfg.condition,
+            );
+            orbfix_host::eval::run::run_eval_on(&world, &queries, &cfg, !a.quiet)?
+        }
+        _ => run_eval(&cfg, !a.quiet)?,
+    };
     print_table(&out);
     let json = if out.reports.len() == 1 {
         serde_json::to_string_pretty(&out.reports[0])?

@@ -386,9 +386,19 @@ pub const PRIOR_OFFSET_M: f64 = 100.0;
 
 /// `n` queries of `seed` in the test zone (truth at least 150 m inside the zone).
 pub fn make_queries(seed: u64, n: usize, condition: Condition) -> Vec<Query> {
-    let z = zones::zone(zones::Split::Test);
+    make_queries_in(&zones::zone(zones::Split::Test), 150.0, seed, n, condition)
+}
+
+/// `n` queries of `seed` with the truth at least `margin` metres inside `z` (e.g. a DEM's
+/// [`crate::world::dem::DemTerrain::location_zone`]).
+pub fn make_queries_in(
+    z: &zones::Zone,
+    margin: f64,
+    seed: u64,
+    n: usize,
+    condition: Condition,
+) -> Vec<Query> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6c6f_6361_6c69_7a65);
-    let margin = 150.0;
     (0..n)
         .map(|id| {
             let x_m = rng.random_range(z.x_min_m + margin..z.x_max_m - margin);

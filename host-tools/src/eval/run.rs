@@ -347,18 +347,29 @@ fn run_query(
 
 /// Runs an evaluation; `progress` shows a progress bar on stderr.
 pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> {
-    anyhow::ensure!(cfg.queries > 0, "--queries must be at least 1");
-    for m in &cfg.matchers {
-        if fix_config_by_name(m).is_none() {
-            matcher_by_name(m)?;
-        }
-    }
     let world = if cfg.flat_world {
         World::flat(cfg.seed)
     } else {
         World::new(cfg.seed)
     };
     let queries = make_queries(cfg.seed, cfg.queries, cfg.condition);
+    run_eval_on(&world, &queries, cfg, progress)
+}
+
+/// As [`run_eval`] on a given world and queries (e.g. a DEM world from
+/// [`World::from_geotiff`] with queries from [`super::pipeline::make_queries_in`]).
+pub fn run_eval_on(
+    world: &World,
+    queries: &[Query],
+    cfg: &EvalConfig,
+    progress: bool,
+) -> anyhow::Result<EvalOutput> {
+    anyhow::ensure!(!queries.is_empty(), "--queries must be at least 1");
+    for m in &cfg.matchers {
+        if fix_config_by_name(m).is_none() {
+            matcher_by_name(m)?;
+        }
+    }
     let bar = if progress {
         indicatif::ProgressBar::new(queries.len() as u64)
     } else {
@@ -374,7 +385,7 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
     let outs: Vec<anyhow::Result<(Vec<QueryResult>, Option<Example>)>> = queries
         .par_iter()
         .map(|q| {
-            let r = run_query(&world, cfg, q);
+            let r = run_query(world, cfg, q);
             bar.inc(1);
             r
         })

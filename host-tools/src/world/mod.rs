@@ -12,6 +12,7 @@
 //! world is built, so a world is bit-identical on every machine.
 
 mod craters;
+pub mod dem;
 mod hash;
 mod noise;
 mod rocks;
@@ -329,6 +330,8 @@ pub struct World {
     albedo_fine: Fbm,
     craters: CraterField,
     rocks: RockField,
+    /// A DEM + orthoimage drawn instead of the procedural terrain ([`World::from_geotiff`]).
+    dem: Option<std::sync::Arc<dem::DemTerrain>>,
 }
 
 /// Noise layer numbers (distinct from the crater and rock layers).
@@ -406,6 +409,7 @@ impl World {
             albedo_fine,
             craters,
             rocks,
+            dem: None,
         }
     }
 
@@ -514,6 +518,10 @@ impl World {
         if n == 0 {
             return grid;
         }
+        if let Some(d) = &self.dem {
+            d.fill_grid(&mut grid, filt.fp);
+            return grid;
+        }
         let xs: Vec<f64> = (0..nx)
             .map(|c| origin_x_m + (c as f64 + 0.5) * m_per_px)
             .collect();
@@ -594,6 +602,9 @@ impl World {
     ) -> Result<Vec<Crater>, WorldError> {
         let cell = self.cfg.ejecta_extent_radii * d_min_m.max(self.cfg.crater_d_min_m);
         check_rect(x0, y0, x1, y1, cell)?;
+        if self.dem.is_some() {
+            return Ok(Vec::new());
+        }
         Ok(self.craters.in_rect(x0, y0, x1, y1, d_min_m))
     }
 
@@ -602,6 +613,9 @@ impl World {
     /// smallest class.
     pub fn rocks_in(&self, x0: f64, y0: f64, x1: f64, y1: f64) -> Result<Vec<Rock>, WorldError> {
         check_rect(x0, y0, x1, y1, 2.0 * self.cfg.rock_d_min_m)?;
+        if self.dem.is_some() {
+            return Ok(Vec::new());
+        }
         Ok(self.rocks.in_rect(x0, y0, x1, y1))
     }
 
@@ -655,6 +669,9 @@ impl World {
 
     #[inline]
     fn eval(&self, x: f64, y: f64, want_h: bool, want_a: bool, filt: &Filter) -> (f64, f64) {
+        if let Some(d) = &self.dem {
+            return d.sample(x, y, filt.fp);
+        }
         if !(x.is_finite() && y.is_finite()) {
             return (0.0, self.cfg.albedo_mean);
         }
