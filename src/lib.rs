@@ -19,6 +19,9 @@
 //! - [`localize`]: the study's 441-window search and the coarse-to-fine dense fix;
 //! - [`flight_run`]: the fix as one call with per-stage hooks (timed on target, re-run on host).
 //! - [`nn`]: quantized siamese CNN matcher (int8 kernels, weight file, shipped network).
+//! - [`peak`]: sub-sample refinement of extrema (parabola through three samples);
+//! - [`stereo`]: depth from the rover's rectified stereo pairs, integer block matching in row
+//!   bands.
 #![no_std]
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
@@ -34,4 +37,6 @@ pub mod image;
 pub mod localize;
 pub mod matcher;
 pub mod nn;
+pub mod peak;
 pub mod reproject;
+pub mod stereo;
