@@ -48,6 +48,15 @@ pub struct Args {
     /// stereo: aggregation radius, pixels at the working size (window 2r + 1).
     #[arg(long, default_value_t = 3)]
     radius: u8,
+    /// stereo: the runner-up must be this many percent worse than the winner (0..=50).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().uniqueness_pct)]
+    uniqueness: u8,
+    /// stereo: the runner-up must be this many cost units per window pixel worse (0..=16).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().min_gap_per_px)]
+    min_gap: u8,
+    /// stereo: neighbours (of 8) within 1 px a disparity needs (0..=8).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().min_support)]
+    min_support: u8,
     /// stereo: output band of the core, rows.
     #[arg(long, default_value_t = 16)]
     band_rows: usize,
@@ -107,6 +116,9 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
     let params = orbfix::stereo::StereoParams {
         downsample: args.downsample,
         radius_px: args.radius,
+        uniqueness_pct: args.uniqueness,
+        min_gap_per_px: args.min_gap,
+        min_support: args.min_support,
         ..Default::default()
     };
     let opts = orbfix_host::stereo_bench::StereoBenchOptions {
@@ -176,7 +188,8 @@ fn bench_world(args: &Args) -> anyhow::Result<()> {
         );
         for (name, (rate, tv, ts, cpu)) in [("mono (4 views)", mono), ("stereo (4 pairs)", st)] {
             println!(
-                "  {name}: {rate:.2} locations/s wall, views {:.1} ms + satellite {:.1} ms per location, CPU {:.0} ms per location",
+                "  {name}: {rate:.2} locations/s wall, {:.2} locations/s on {threads} unshared cores (threads / CPU time); views {:.1} ms + satellite {:.1} ms per location, CPU {:.0} ms per location",
+                threads as f64 / cpu,
                 1e3 * tv,
                 1e3 * ts,
                 1e3 * cpu
