@@ -261,7 +261,11 @@ fn stereo_pairs_are_written_beside_the_views() {
     dataset::generate(&mono, &a, None, false).unwrap();
     dataset::generate(&st, &b, None, false).unwrap();
     dataset::generate(&st, &c, None, false).unwrap();
-    assert_eq!(fingerprint(&files(&b)), fingerprint(&files(&c)), "deterministic");
+    assert_eq!(
+        fingerprint(&files(&b)),
+        fingerprint(&files(&c)),
+        "deterministic"
+    );
     let (dm, ds) = (Dataset::open(&a).unwrap(), Dataset::open(&b).unwrap());
     assert!(dm.rows[0].right.is_none());
     assert!(dm.load_right(&dm.rows[0]).is_err());
@@ -272,6 +276,9 @@ fn stereo_pairs_are_written_beside_the_views() {
         let (lm, ls) = (dm.load_views(rm).unwrap(), ds.load_views(rs).unwrap());
         assert!(lm == ls);
         let r = ds.load_right(rs).unwrap();
-        assert!(r.iter().zip(&ls).all(|(r, l)| r != l && r.dimensions() == l.dimensions()));
+        assert!(r
+            .iter()
+            .zip(&ls)
+            .all(|(r, l)| r != l && r.dimensions() == l.dimensions()));
     }
 }

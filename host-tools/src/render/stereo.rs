@@ -11,8 +11,8 @@ use image::GrayImage;
 use orbfix::camera::{Camera, RoverPose};
 use serde::{Deserialize, Serialize};
 
-/// Default baseline, metres (the core's default).
-pub const DEFAULT_BASELINE_M: f64 = orbfix::stereo::DEFAULT_BASELINE_M as f64;
+/// Default baseline, metres (the core's default, `orbfix::stereo::DEFAULT_BASELINE_M`).
+pub const DEFAULT_BASELINE_M: f64 = 0.30;
 
 /// Noise stream offset of the right cameras (the left views use streams 1..=4).
 const RIGHT_STREAM: u64 = 100;
@@ -168,6 +168,14 @@ mod tests {
     use super::*;
     use nalgebra::Vector3;
     use orbfix::camera::{CameraParams, View};
+
+    #[test]
+    fn default_baseline_is_the_cores() {
+        assert_eq!(
+            DEFAULT_BASELINE_M as f32,
+            orbfix::stereo::DEFAULT_BASELINE_M
+        );
+    }
 
     #[test]
     fn right_camera_sees_points_shifted_left_by_the_disparity() {
