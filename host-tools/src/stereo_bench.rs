@@ -184,7 +184,7 @@ pub fn run(opts: &StereoBenchOptions) -> anyhow::Result<Index> {
                 'b: for yy in yo * k..yo * k + k {
                     for xx in xo * k..xo * k + k {
                         let rr = range[yy * fw + xx];
-                        if !(rr > 0.0) {
+                        if rr.is_nan() || rr <= 0.0 {
                             inside = false;
                             break 'b;
                         }

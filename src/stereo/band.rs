@@ -104,7 +104,8 @@ impl Rings<'_> {
     fn ensure(&mut self, frames: [&ImageView<'_>; 2], k: isize) -> usize {
         let last = self.h - 1;
         let k = (k.max(0) as usize).min(last);
-        let slot = k % self.ring;
+        // `checked_rem`: no division-by-zero panic path in the flight build (ring >= 4).
+        let slot = k.checked_rem(self.ring).unwrap_or(0);
         if self.f_tag.get(slot) == Some(&(k + 1)) {
             return slot;
         }
@@ -154,7 +155,7 @@ fn inside(x: usize, dmin: usize, dn: usize) -> usize {
 
 /// Adds one filtered row pair's costs to the column sums (`dn` per column).
 fn add_row(colsum: &mut [u16], dn: usize, dmin: usize, l: &[u8], r: &[u8], oc: u16) {
-    for (x, (col, &lp)) in colsum.chunks_exact_mut(dn).zip(l).enumerate() {
+    for (x, (col, &lp)) in colsum.chunks_exact_mut(dn.max(1)).zip(l).enumerate() {
         let nv = inside(x, dmin, dn);
         let (cin, cout) = col.split_at_mut(nv.min(col.len()));
         if nv > 0 {
@@ -184,7 +185,7 @@ fn update_rows(
     ro: &[u8],
 ) {
     for (x, (col, (&a, &b))) in colsum
-        .chunks_exact_mut(dn)
+        .chunks_exact_mut(dn.max(1))
         .zip(ln.iter().zip(lo))
         .enumerate()
     {
@@ -385,7 +386,9 @@ fn finish_row(
         let v = match mode {
             Output::DisparityQ4 => d,
             Output::DepthMm => {
-                let z = (depth_k + u32::from(d) / 2) / u32::from(d);
+                let z = (depth_k + u32::from(d) / 2)
+                    .checked_div(u32::from(d))
+                    .unwrap_or(0);
                 if z == 0 || z > u32::from(u16::MAX) {
                     continue;
                 }

@@ -81,7 +81,7 @@ impl RowRanges {
         let s1 = self.sin_t[1] + yn * self.cos_t[1];
         let s_lo = s0.min(s1) - self.roll_term;
         let s_hi = s0.max(s1) + self.roll_term;
-        if !(s_hi > 0.0) {
+        if s_hi.is_nan() || s_hi <= 0.0 {
             return None;
         }
         let d_lo = self.fb * (s_lo / (self.h + self.below)).max(self.inv_zmax);

@@ -352,8 +352,8 @@ impl StereoRig {
             }
         }
         let k = usize::from(p.downsample);
-        let width = camera.width_px as usize / k;
-        let height = camera.height_px as usize / k;
+        let width = (camera.width_px as usize).checked_div(k).unwrap_or(0);
+        let height = (camera.height_px as usize).checked_div(k).unwrap_or(0);
         let r = usize::from(p.radius_px);
         if width < 2 * r + 4 || height < 2 * r + 2 {
             return Err(StereoError::TooSmall);
@@ -365,7 +365,7 @@ impl StereoRig {
             return Err(StereoError::TooSmall);
         }
         let kq = geo.focal_px() * p.baseline_m * 1000.0 * (1u32 << DISPARITY_FRAC_BITS) as f32;
-        if !(kq.is_finite() && kq >= 1.0 && kq < 4.0e9) {
+        if !(1.0..4.0e9).contains(&kq) {
             return Err(StereoError::Baseline);
         }
         Ok(Self {

@@ -7,7 +7,7 @@ use crate::image::ImageView;
 /// keeps the rest). Rows past the reduced image (`row >= height / k`) leave `out` as is.
 pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8]) {
     let k = k.clamp(1, 4);
-    let w = frame.width() / k;
+    let w = frame.width().checked_div(k).unwrap_or(0);
     if k == 1 {
         if let Some(src) = frame.row(row) {
             for (o, &s) in out.iter_mut().zip(src).take(w) {
@@ -33,7 +33,7 @@ pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8
                 s += b.iter().map(|&p| u32::from(p)).sum::<u32>();
             }
         }
-        *o = ((s + area / 2) / area) as u8;
+        *o = (s + area / 2).checked_div(area).unwrap_or(0) as u8;
     }
 }
 
