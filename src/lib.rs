@@ -23,6 +23,9 @@
 //!   window records, CRC-32);
 //! - [`peak`]: sub-sample peak location;
 //! - [`nn`]: quantized siamese CNN matcher (int8 kernels, weight file, shipped network).
+//! - [`peak`]: sub-sample refinement of extrema (parabola through three samples);
+//! - [`stereo`]: depth from the rover's rectified stereo pairs, integer block matching in row
+//!   bands.
 #![no_std]
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
@@ -41,3 +44,4 @@ pub mod matcher;
 pub mod nn;
 pub mod peak;
 pub mod reproject;
+pub mod stereo;

@@ -415,15 +415,6 @@ fn sort_by_score_desc(c: &mut [Candidate]) {
     }
 }
 
-/// Vertex offset of the parabola through `(-1, l)`, `(0, c)`, `(1, r)`, in `[-0.5, 0.5]`.
-fn parabola(l: f32, c: f32, r: f32) -> f32 {
-    let den = l - 2.0 * c + r;
-    if den >= 0.0 || !den.is_finite() {
-        return 0.0;
-    }
-    (0.5 * (l - r) / den).clamp(-0.5, 0.5)
-}
-
 /// Splits a byte buffer into an image of `w x h`, returning the rest.
 fn take_image(
     buf: &mut [u8],
@@ -567,11 +558,11 @@ pub fn localize<M: Matcher + ?Sized>(
             let (bc, br) = (bi % g_cols, bi / g_cols);
             let at = |c: usize, r: usize| fr_s.get(r * g.cols + c).copied();
             let dx = match (bc.checked_sub(1).and_then(|c| at(c, br)), at(bc + 1, br)) {
-                (Some(a), Some(b)) => parabola(a, bs, b),
+                (Some(a), Some(b)) => crate::peak::parabola_offset(a, bs, b),
                 _ => 0.0,
             };
             let dy = match (br.checked_sub(1).and_then(|r| at(bc, r)), at(bc, br + 1)) {
-                (Some(a), Some(b)) => parabola(a, bs, b),
+                (Some(a), Some(b)) => crate::peak::parabola_offset(a, bs, b),
                 _ => 0.0,
             };
             let col = ((px0 + bc) as f32 + dx) * l.ff as f32;
@@ -626,15 +617,6 @@ pub fn localize<M: Matcher + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn parabola_vertex() {
-        // y = -(x - 0.25)^2 sampled at -1, 0, 1.
-        let f = |x: f32| -(x - 0.25) * (x - 0.25);
-        let d = parabola(f(-1.0), f(0.0), f(1.0));
-        assert!((d - 0.25).abs() < 1e-5, "{d}");
-        assert_eq!(parabola(1.0, 1.0, 1.0), 0.0);
-    }
 
     #[test]
     fn nms_suppresses_neighbours() {

@@ -1,5 +1,7 @@
-//! Sub-sample peak location: the vertex of the parabola through a maximum and its two
-//! neighbours (one implementation, used by every stage that refines a peak).
+//! Sub-sample refinement of a sampled extremum by a parabola through three samples (one
+//! implementation for the whole core): the float form for score maps (peaks of similarity:
+//! the fix's refinement, the localizer) and the integer form for cost curves (minima of
+//! matching costs: stereo disparity).
 
 /// Vertex offset, in samples, of the parabola through `(-1, l)`, `(0, c)`, `(1, r)`, where
 /// `c` is the largest of the three; clamped to `[-0.5, 0.5]`. Returns 0 when the three do
@@ -35,6 +37,31 @@ pub fn peak_offset_2d<F: Fn(usize, usize) -> Option<f32>>(at: F, c: usize, r: us
     (dx, dy)
 }
 
+/// Offset of the minimum of the parabola through `(-1, l)`, `(0, c)`, `(1, r)` from the
+/// middle sample, in units of `1 / one` sample (e.g. `one = 16`: Q4), rounded to nearest and
+/// clamped to `[-one / 2, one / 2]`; 0 when the fit is not convex (`l + r <= 2 c`). Integer
+/// only: the costs must satisfy `|l|, |c|, |r| < 2^24` and `one` lie in `1..=64` (outside
+/// those, 0).
+pub fn parabola_min_offset(l: i32, c: i32, r: i32, one: i32) -> i32 {
+    const LIM: i32 = 1 << 24;
+    if !(1..=64).contains(&one) || l.abs() >= LIM || c.abs() >= LIM || r.abs() >= LIM {
+        return 0;
+    }
+    let den = l + r - 2 * c;
+    if den <= 0 {
+        return 0;
+    }
+    // (l - r) / (2 den) samples, in units of 1/one, rounded half away from zero.
+    let num = (l - r) * one;
+    let den2 = 2 * den;
+    let q = if num >= 0 {
+        (num + den) / den2
+    } else {
+        -((-num + den) / den2)
+    };
+    q.clamp(-one / 2, one / 2)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -66,5 +93,20 @@ mod tests {
         // On an edge only the inner axis is refined.
         let (dx, _) = peak_offset_2d(at, 0, 1);
         assert_eq!(dx, 0.0);
+    }
+
+    #[test]
+    fn integer_minimum() {
+        // c(x) = 100 (x - 0.3)^2 + 7 sampled at -1, 0, 1: vertex +0.3 -> 4.8/16 ~ 5.
+        let f = |x: f64| (100.0 * (x - 0.3) * (x - 0.3) + 7.0).round() as i32;
+        assert_eq!(parabola_min_offset(f(-1.0), f(0.0), f(1.0), 16), 5);
+        let g = |x: f64| (100.0 * (x + 0.45) * (x + 0.45)).round() as i32;
+        assert_eq!(parabola_min_offset(g(-1.0), g(0.0), g(1.0), 16), -7);
+        // Flat or concave: no offset; clamped to half a sample.
+        assert_eq!(parabola_min_offset(5, 5, 5, 16), 0);
+        assert_eq!(parabola_min_offset(1, 5, 1, 16), 0);
+        assert_eq!(parabola_min_offset(100, 0, 0, 16), 8);
+        assert_eq!(parabola_min_offset(0, 0, 100, 16), -8);
+        assert_eq!(parabola_min_offset(1, 0, 1, 0), 0);
     }
 }

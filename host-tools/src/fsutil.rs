@@ -62,7 +62,8 @@ pub fn png_gray16(w: u32, h: u32, values: &[u16]) -> anyhow::Result<Vec<u8>> {
             h
         );
     }
-    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
+    // The encoder takes native-endian samples (it writes PNG's big-endian itself).
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_ne_bytes()).collect();
     let mut out = Vec::new();
     PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
         .write_image(&bytes, w, h, ExtendedColorType::L16)
@@ -109,4 +110,19 @@ pub fn read_gray_png(path: &Path, size: Option<(u32, u32)>) -> anyhow::Result<Gr
         }
     }
     Ok(img)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gray16_png_round_trips_through_the_decoder() {
+        let v = [1u16, 302, 0x2E01, 65535, 0, 4096];
+        let png = png_gray16(3, 2, &v).unwrap();
+        let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png)
+            .unwrap()
+            .into_luma16();
+        assert_eq!(img.as_raw().as_slice(), &v);
+    }
 }

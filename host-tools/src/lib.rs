@@ -16,4 +16,5 @@ pub mod nn;
 pub mod render;
 pub mod reproject_bench;
 pub mod reproject_ref;
+pub mod stereo_bench;
 pub mod world;

@@ -247,3 +247,38 @@ fn bad_generate_options_give_clear_errors() {
     let (ok, err) = orbfix(&["render", "location", "--out", o, "--hfov", "180"]);
     assert!(!ok && err.contains("HFOV"), "{err}");
 }
+
+#[test]
+fn stereo_pairs_are_written_beside_the_views() {
+    let mono = GenerateConfig::preset(Preset::Smoke, 5);
+    let mut st = mono.clone();
+    st.stereo = Some(orbfix_host::render::stereo::StereoRender {
+        baseline_m: 0.3,
+        right_gain: 1.02,
+    });
+    let t = tempfile::tempdir().unwrap();
+    let (a, b, c) = (t.path().join("m"), t.path().join("s"), t.path().join("s2"));
+    dataset::generate(&mono, &a, None, false).unwrap();
+    dataset::generate(&st, &b, None, false).unwrap();
+    dataset::generate(&st, &c, None, false).unwrap();
+    assert_eq!(
+        fingerprint(&files(&b)),
+        fingerprint(&files(&c)),
+        "deterministic"
+    );
+    let (dm, ds) = (Dataset::open(&a).unwrap(), Dataset::open(&b).unwrap());
+    assert!(dm.rows[0].right.is_none());
+    assert!(dm.load_right(&dm.rows[0]).is_err());
+    for (rm, rs) in dm.rows.iter().zip(&ds.rows) {
+        let paths = rs.right.as_ref().unwrap();
+        assert!(paths[1].ends_with(&format!("{}_right_right.png", rs.id)));
+        // The left images are the mono views; the right ones differ from them.
+        let (lm, ls) = (dm.load_views(rm).unwrap(), ds.load_views(rs).unwrap());
+        assert!(lm == ls);
+        let r = ds.load_right(rs).unwrap();
+        assert!(r
+            .iter()
+            .zip(&ls)
+            .all(|(r, l)| r != l && r.dimensions() == l.dimensions()));
+    }
+}

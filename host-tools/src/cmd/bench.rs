@@ -30,6 +30,40 @@ pub struct Args {
     /// reproject: timed repetitions of the table apply and of OpenCV's remap.
     #[arg(long, default_value_t = 2000)]
     reps: usize,
+    /// world: also time stereo pairs (4 left + 4 right views + satellite crop), beside mono.
+    #[arg(long)]
+    stereo: bool,
+    /// stereo: baseline, metres (also the world bench's with --stereo).
+    #[arg(long, default_value_t = orbfix_host::render::stereo::DEFAULT_BASELINE_M)]
+    baseline: f64,
+    /// stereo: gain of the right camera relative to the left.
+    #[arg(long, default_value_t = 1.02)]
+    right_gain: f64,
+    /// stereo: Gaussian sensor noise of each camera, gray levels.
+    #[arg(long, default_value_t = 1.0)]
+    noise: f64,
+    /// stereo: reduction of the frames before matching (1..=4).
+    #[arg(long, default_value_t = 2)]
+    downsample: u8,
+    /// stereo: aggregation radius, pixels at the working size (window 2r + 1).
+    #[arg(long, default_value_t = 3)]
+    radius: u8,
+    /// stereo: the runner-up must be this many percent worse than the winner (0..=50).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().uniqueness_pct)]
+    uniqueness: u8,
+    /// stereo: the runner-up must be this many cost units per window pixel worse (0..=16).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().min_gap_per_px)]
+    min_gap: u8,
+    /// stereo: neighbours (of 8) within 1 px a disparity needs (0..=8).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().min_support)]
+    min_support: u8,
+    /// stereo: output band of the core, rows.
+    #[arg(long, default_value_t = 16)]
+    band_rows: usize,
+    /// stereo: output folder of the benchmark set (pairs, truth, masks, core disparity,
+    /// index.json) that scripts/stereo_bench.py scores.
+    #[arg(long, default_value = ".cache/stereo-bench")]
+    out: std::path::PathBuf,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -39,6 +73,9 @@ enum Target {
     /// The core's LUT reprojection (apply vs f64 reference vs OpenCV remap; table bytes and
     /// build time).
     Reproject,
+    /// The core's stereo matcher on world-rendered pairs: writes the benchmark set that
+    /// scripts/stereo-bench.sh scores against OpenCV (docs/stereo.md).
+    Stereo,
 }
 
 /// CPU time (user + system) of this process so far, seconds.
@@ -61,7 +98,67 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     match args.target {
         Target::World => bench_world(&args),
         Target::Reproject => bench_reproject(&args),
+        Target::Stereo => bench_stereo(&args),
     }
+}
+
+fn bench_stereo(args: &Args) -> anyhow::Result<()> {
+    let (w, h) = super::generate::parse_size(&args.size)?;
+    let mut render = RenderOptions::default();
+    render.camera.width_px = w;
+    render.camera.height_px = h;
+    render.noise_sigma = args.noise;
+    let rig = orbfix_host::render::stereo::StereoRender {
+        baseline_m: args.baseline,
+        right_gain: args.right_gain,
+    };
+    rig.validate()?;
+    let params = orbfix::stereo::StereoParams {
+        downsample: args.downsample,
+        radius_px: args.radius,
+        uniqueness_pct: args.uniqueness,
+        min_gap_per_px: args.min_gap,
+        min_support: args.min_support,
+        ..Default::default()
+    };
+    let opts = orbfix_host::stereo_bench::StereoBenchOptions {
+        seed: args.seed,
+        locations: args.locations,
+        render,
+        rig,
+        params,
+        half_square_m: 25.0,
+        band_rows: args.band_rows,
+        out: args.out.clone(),
+    };
+    let ix = orbfix_host::stereo_bench::run(&opts)?;
+    println!(
+        "bench stereo: {} pairs at {}x{} -> {}x{} (downsample {}), baseline {} m, noise {} gray, right gain {}",
+        ix.entries.len(),
+        w,
+        h,
+        ix.size[0],
+        ix.size[1],
+        ix.downsample,
+        ix.baseline_m,
+        ix.noise_sigma,
+        ix.right_gain
+    );
+    println!(
+        "  core: {:.2} ms per view (1 thread), {:.0} pixel-disparities and {:.0} column-cost updates per view ({:.2} M pixel-disparities for 4 views), working memory {} bytes + output band {} bytes ({} rows)",
+        ix.core_ms_per_view,
+        ix.core_pixel_disparities_per_view,
+        ix.core_cost_updates_per_view,
+        4.0 * ix.core_pixel_disparities_per_view / 1e6,
+        ix.core_working_bytes,
+        ix.core_band_bytes,
+        ix.band_rows
+    );
+    println!(
+        "  set written to {}",
+        orbfix_host::stereo_bench::index_path(&args.out).display()
+    );
+    Ok(())
 }
 
 fn bench_world(args: &Args) -> anyhow::Result<()> {
@@ -77,6 +174,30 @@ fn bench_world(args: &Args) -> anyhow::Result<()> {
     // Warm-up (page faults, thread pool).
     let p = render::ground_pose(&world, 1000.0, 1000.0, 0.0);
     render::render_views(&world, &p, sun, &opts)?;
+    if args.stereo {
+        let rig = orbfix_host::render::stereo::StereoRender {
+            baseline_m: args.baseline,
+            right_gain: args.right_gain,
+        };
+        rig.validate()?;
+        let mono = world_rate(&world, &opts, sun, args, None)?;
+        let st = world_rate(&world, &opts, sun, args, Some(rig))?;
+        println!(
+            "bench world: {} locations at {w}x{h}, {threads} threads, mono then stereo in one run",
+            args.locations
+        );
+        for (name, (rate, tv, ts, cpu)) in [("mono (4 views)", mono), ("stereo (4 pairs)", st)] {
+            println!(
+                "  {name}: {rate:.2} locations/s wall, {:.2} locations/s on {threads} unshared cores (threads / CPU time); views {:.1} ms + satellite {:.1} ms per location, CPU {:.0} ms per location",
+                threads as f64 / cpu,
+                1e3 * tv,
+                1e3 * ts,
+                1e3 * cpu
+            );
+        }
+        println!("  stereo / mono time per location: {:.2}x", mono.0 / st.0);
+        return Ok(());
+    }
     let cache = render::terrain::TileCache::new(1 << 26);
     let mut t_views = 0.0;
     let mut t_sat = 0.0;
@@ -174,6 +295,49 @@ fn bench_world(args: &Args) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Locations per second (wall), views and satellite seconds per location, CPU seconds per
+/// location, of mono views or stereo pairs (`rig`), each pass with its own cache.
+fn world_rate(
+    world: &World,
+    opts: &RenderOptions,
+    sun: Sun,
+    args: &Args,
+    rig: Option<orbfix_host::render::stereo::StereoRender>,
+) -> anyhow::Result<(f64, f64, f64, f64)> {
+    let cache = render::terrain::TileCache::new(1 << 26);
+    let (mut t_views, mut t_sat) = (0.0, 0.0);
+    let t0 = Instant::now();
+    let c0 = cpu_seconds();
+    for i in 0..args.locations {
+        let x = 300.0 + 97.0 * i as f64;
+        let y = 400.0 + 61.0 * i as f64;
+        let pose = render::ground_pose(world, x, y, 37.0 * i as f64);
+        let c = (!args.no_cache).then_some(&cache);
+        let t = Instant::now();
+        match &rig {
+            Some(r) => {
+                let s = render::stereo::render_stereo_views(world, &pose, sun, opts, r, c)?;
+                std::hint::black_box(s);
+            }
+            None => {
+                std::hint::black_box(render::render_views_cached(world, &pose, sun, opts, c)?);
+            }
+        }
+        t_views += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let s = render::render_satellite_crop_cached(world, x, y, 200, 0.25, sun, opts, c)?;
+        t_sat += t.elapsed().as_secs_f64();
+        std::hint::black_box(s);
+    }
+    let n = args.locations as f64;
+    Ok((
+        n / t0.elapsed().as_secs_f64(),
+        t_views / n,
+        t_sat / n,
+        (cpu_seconds() - c0) / n,
+    ))
 }
 
 fn bench_reproject(args: &Args) -> anyhow::Result<()> {

@@ -49,7 +49,18 @@ pub struct Args {
     /// Also write a PLY point cloud per location (implies --range's rendering).
     #[arg(long)]
     point_cloud: bool,
-    /// Gaussian sensor noise, gray levels (standard deviation; 0 = none).
+    /// Also render each view's stereo partner (right camera, `--baseline` along the view
+    /// camera's x axis) and write it beside the view as ID_VIEW_right.png.
+    #[arg(long)]
+    stereo: bool,
+    /// Stereo baseline, metres (with --stereo).
+    #[arg(long, default_value_t = orbfix_host::render::stereo::DEFAULT_BASELINE_M)]
+    baseline: f64,
+    /// Gain of the right camera relative to the left, e.g. 1.02 (with --stereo).
+    #[arg(long, default_value_t = 1.0)]
+    right_gain: f64,
+    /// Gaussian sensor noise, gray levels (standard deviation; 0 = none; each camera draws
+    /// its own).
     #[arg(long, default_value_t = 0.0)]
     noise: f64,
     /// Largest rover pitch and roll, degrees (each drawn in [-A, A] per location; 0 = level).
@@ -118,6 +129,14 @@ pub fn config(args: &Args) -> anyhow::Result<GenerateConfig> {
     cfg.point_cloud = args.point_cloud;
     cfg.render.noise_sigma = args.noise;
     cfg.max_attitude_deg = args.max_attitude;
+    if args.stereo {
+        let rig = orbfix_host::render::stereo::StereoRender {
+            baseline_m: args.baseline,
+            right_gain: args.right_gain,
+        };
+        rig.validate().context("--baseline / --right-gain")?;
+        cfg.stereo = Some(rig);
+    }
     cfg.validate()?;
     Ok(cfg)
 }

@@ -115,6 +115,9 @@ pub struct GenerateConfig {
     /// (0: level rover).
     #[serde(default)]
     pub max_attitude_deg: f64,
+    /// Stereo pairs: also render each view's right camera (`docs/frames.md`), if set.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stereo: Option<render::stereo::StereoRender>,
 }
 
 impl GenerateConfig {
@@ -144,6 +147,7 @@ impl GenerateConfig {
             max_attitude_deg: 0.0,
             range: false,
             point_cloud: false,
+            stereo: None,
         }
     }
 
@@ -271,6 +275,10 @@ impl GenerateConfig {
                 .range
                 .then(|| VIEW_NAMES.map(|v| format!("{dir}/{id}_{v}_range.png"))),
             point_cloud: self.point_cloud.then(|| format!("{dir}/{id}_cloud.ply")),
+            right: self
+                .stereo
+                .is_some()
+                .then(|| VIEW_NAMES.map(|v| format!("{dir}/{id}_{v}_right.png"))),
         })
     }
 }
@@ -326,6 +334,10 @@ pub struct ManifestRow {
     /// Point cloud (binary PLY, world frame), if generated.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub point_cloud: Option<String>,
+    /// Right images of the stereo pairs (8-bit gray PNG; the views are the left images), if
+    /// generated with `--stereo`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub right: Option<[String; 4]>,
 }
 
 /// `dataset.json`: what made the dataset.
@@ -447,7 +459,11 @@ fn location_complete(dir: &Path, cfg: &GenerateConfig, row: &ManifestRow) -> boo
         .point_cloud
         .as_ref()
         .is_none_or(|p| dir.join(p).is_file());
-    views_ok && sat_ok && range_ok && ply_ok
+    let right_ok = row.right.as_ref().is_none_or(|r| {
+        r.iter()
+            .all(|p| read_gray_png(&dir.join(p), Some((w, h))).is_ok())
+    });
+    views_ok && sat_ok && range_ok && ply_ok && right_ok
 }
 
 /// Renders and writes one location's files (atomically, each file).
@@ -463,8 +479,19 @@ pub fn render_location(
     pose.roll_deg = row.roll_deg as f32;
     let mut opts = cfg.render;
     opts.noise_seed = mix(cfg.seed ^ 0x006E_6F69_7365, row.index as u64);
-    let set = render::render_views_cached(world, &pose, row.sun_view, &opts, cache)
-        .with_context(|| format!("rendering views of location {}", row.id))?;
+    let (set, right) = match &cfg.stereo {
+        Some(rig) => {
+            let s =
+                render::stereo::render_stereo_views(world, &pose, row.sun_view, &opts, rig, cache)
+                    .with_context(|| format!("rendering stereo pairs of location {}", row.id))?;
+            (s.left, Some(s.right))
+        }
+        None => (
+            render::render_views_cached(world, &pose, row.sun_view, &opts, cache)
+                .with_context(|| format!("rendering views of location {}", row.id))?,
+            None,
+        ),
+    };
     let (sat, _) = render::render_satellite_crop_cached(
         world,
         row.x_m,
@@ -482,6 +509,11 @@ pub fn render_location(
     }
     for (img, p) in set.views.iter().zip(&row.views) {
         write_png(&dir.join(p), img)?;
+    }
+    if let (Some(imgs), Some(paths)) = (&right, &row.right) {
+        for (img, p) in imgs.iter().zip(paths) {
+            write_png(&dir.join(p), img)?;
+        }
     }
     if let Some(paths) = &row.range {
         let (w, h) = (cfg.render.camera.width_px, cfg.render.camera.height_px);
@@ -760,6 +792,24 @@ impl Dataset {
             read_gray_png(&self.dir.join(&row.views[1]), s)?,
             read_gray_png(&self.dir.join(&row.views[2]), s)?,
             read_gray_png(&self.dir.join(&row.views[3]), s)?,
+        ])
+    }
+
+    /// The right images of a row's stereo pairs (front, right, rear, left), size-checked;
+    /// an error if the dataset has none (generate it with `--stereo`).
+    pub fn load_right(&self, row: &ManifestRow) -> anyhow::Result<[GrayImage; 4]> {
+        let paths = row.right.as_ref().with_context(|| {
+            format!(
+                "location {} has no right images: generate the dataset with --stereo",
+                row.id
+            )
+        })?;
+        let s = Some(self.view_size());
+        Ok([
+            read_gray_png(&self.dir.join(&paths[0]), s)?,
+            read_gray_png(&self.dir.join(&paths[1]), s)?,
+            read_gray_png(&self.dir.join(&paths[2]), s)?,
+            read_gray_png(&self.dir.join(&paths[3]), s)?,
         ])
     }
 

@@ -14,6 +14,7 @@ pub mod ortho;
 pub mod ply;
 pub mod raster;
 pub mod shadow;
+pub mod stereo;
 pub mod terrain;
 
 use crate::world::{HeightGrid, World};
@@ -511,16 +512,54 @@ pub fn render_views_cached(
     opts: &RenderOptions,
     cache: Option<&terrain::TileCache>,
 ) -> Result<ViewSet, RenderError> {
-    opts.validate()?;
-    sun.validate()?;
-    pose.validate()?;
+    let cams = view_cameras(pose, opts)?;
+    let jobs: Vec<(Camera, u64, f64)> = cams
+        .iter()
+        .enumerate()
+        .map(|(k, c)| (*c, k as u64 + 1, 1.0))
+        .collect();
+    let out = render_jobs(world, pose, sun, opts, cache, &jobs)?;
+    let mut it = out.into_iter();
+    let mut next = || {
+        it.next()
+            .unwrap_or_else(|| (GrayImage::new(1, 1), Vec::new()))
+    };
+    let (v0, r0) = next();
+    let (v1, r1) = next();
+    let (v2, r2) = next();
+    let (v3, r3) = next();
+    Ok(ViewSet {
+        views: [v0, v1, v2, v3],
+        range_m: [r0, r1, r2, r3],
+        cameras: cams,
+    })
+}
+
+/// The four view cameras (front, right, rear, left) of a rover at `pose`.
+pub fn view_cameras(pose: &RoverPose, opts: &RenderOptions) -> Result<[Camera; 4], RenderError> {
     let params = opts.camera_params();
-    let cams = [
+    Ok([
         Camera::new(&params, pose, View::Front)?,
         Camera::new(&params, pose, View::Right)?,
         Camera::new(&params, pose, View::Rear)?,
         Camera::new(&params, pose, View::Left)?,
-    ];
+    ])
+}
+
+/// Checks the inputs, prepares the terrain around the rover once (mesh levels, cast
+/// shadows, node shading) and renders `jobs` over it ([`render_cameras`]).
+pub(crate) fn render_jobs(
+    world: &dyn Surface,
+    pose: &RoverPose,
+    sun: Sun,
+    opts: &RenderOptions,
+    cache: Option<&terrain::TileCache>,
+    jobs: &[(Camera, u64, f64)],
+) -> Result<Vec<(GrayImage, Vec<f32>)>, RenderError> {
+    opts.validate()?;
+    sun.validate()?;
+    pose.validate()?;
+    let params = opts.camera_params();
     let own;
     let cache = match cache {
         Some(c) => c,
@@ -539,32 +578,33 @@ pub fn render_views_cached(
     );
     let shadow = shadow::ShadowField::build(&terrain, &sun, opts.shadow_reach_m);
     let attrs = raster::NodeAttrs::compute(&terrain, &shadow);
+    Ok(render_cameras(&terrain, &attrs, jobs, &sun, opts))
+}
+
+/// Renders `jobs` (camera, noise stream, gain on the gray levels before quantization) in
+/// parallel over one prepared terrain; results in job order (deterministic).
+pub(crate) fn render_cameras(
+    terrain: &terrain::Terrain,
+    attrs: &raster::NodeAttrs,
+    jobs: &[(Camera, u64, f64)],
+    sun: &Sun,
+    opts: &RenderOptions,
+) -> Vec<(GrayImage, Vec<f32>)> {
     use rayon::prelude::*;
-    let out: Vec<(GrayImage, Vec<f32>)> = cams
-        .par_iter()
-        .enumerate()
-        .map(|(k, cam)| {
-            let (gray, range) = raster::render_view(&terrain, &attrs, cam, &sun, opts);
+    jobs.par_iter()
+        .map(|(cam, stream, gain)| {
+            let (mut gray, range) = raster::render_view(terrain, attrs, cam, sun, opts);
+            if *gain != 1.0 {
+                for g in &mut gray {
+                    *g = (*g as f64 * gain).clamp(0.0, 255.0) as f32;
+                }
+            }
             (
-                opts.finish(cam.width_px, cam.height_px, &gray, k as u64 + 1),
+                opts.finish(cam.width_px, cam.height_px, &gray, *stream),
                 range,
             )
         })
-        .collect();
-    let mut it = out.into_iter();
-    let mut next = || {
-        it.next()
-            .unwrap_or_else(|| (GrayImage::new(1, 1), Vec::new()))
-    };
-    let (v0, r0) = next();
-    let (v1, r1) = next();
-    let (v2, r2) = next();
-    let (v3, r3) = next();
-    Ok(ViewSet {
-        views: [v0, v1, v2, v3],
-        range_m: [r0, r1, r2, r3],
-        cameras: cams,
-    })
+        .collect()
 }
 
 /// A satellite crop `size_px x size_px` centred on `(x_m, y_m)` (`docs/frames.md`).

@@ -1,0 +1,112 @@
+#!/usr/bin/env python3
+"""Scores the core's stereo against OpenCV StereoSGBM and StereoBM on the same pairs.
+
+Reads the set `orbfix bench stereo` wrote (index.json, reduced pairs, true disparity,
+top-down-square masks, the core's disparity), runs OpenCV on every pair (one thread), and
+prints one markdown table: over the pixels with true disparity inside the 50 m square,
+coverage (share with an estimate), bad > 1 px and bad > 3 px (share of the estimates whose
+error exceeds 1 / 3 px), mean absolute error, the share of all scored pixels with an
+estimate within 1 px, and time per view. Optional --json writes it.
+"""
+import argparse
+import json
+import os
+import sys
+import time
+
+import cv2
+import numpy as np
+
+
+def load16(path):
+    a = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    if a is None:
+        sys.exit(f"cannot read {path}: run `orbfix bench stereo` first")
+    return a.astype(np.float32) / 16.0
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--set", default=".cache/stereo-bench", help="folder of index.json")
+    ap.add_argument("--json", help="write the table as JSON here")
+    ap.add_argument("--sgbm-block", type=int, default=5, help="SGBM block size (odd)")
+    ap.add_argument("--bm-block", type=int, default=7, help="BM block size (odd, >= 5)")
+    args = ap.parse_args()
+    ix_path = os.path.join(args.set, "index.json")
+    try:
+        ix = json.load(open(ix_path))
+    except OSError:
+        sys.exit(f"cannot read {ix_path}: run `orbfix bench stereo --out {args.set}` first")
+    cv2.setNumThreads(1)
+    ndisp = 16 * ((ix["max_disparity_px"] + 2 + 15) // 16)
+    b = args.sgbm_block
+    sgbm = cv2.StereoSGBM_create(
+        minDisparity=0, numDisparities=ndisp, blockSize=b, P1=8 * b * b, P2=32 * b * b,
+        disp12MaxDiff=1, uniquenessRatio=10, speckleWindowSize=100, speckleRange=2,
+        preFilterCap=31, mode=cv2.STEREO_SGBM_MODE_SGBM)
+    bm = cv2.StereoBM_create(numDisparities=ndisp, blockSize=args.bm_block)
+    bm.setUniquenessRatio(10)
+    bm.setTextureThreshold(10)
+    bm.setSpeckleWindowSize(100)
+    bm.setSpeckleRange(2)
+    bm.setDisp12MaxDiff(1)
+    bm.setPreFilterCap(31)
+    methods = ["orbfix core", "OpenCV StereoSGBM", "OpenCV StereoBM"]
+    acc = {m: dict(n=0, cover=0, bad1=0, bad3=0, abs=0.0, secs=0.0) for m in methods}
+    for e in ix["entries"]:
+        p = lambda k: os.path.join(args.set, e[k])
+        left = cv2.imread(p("left"), cv2.IMREAD_GRAYSCALE)
+        right = cv2.imread(p("right"), cv2.IMREAD_GRAYSCALE)
+        truth = load16(p("truth"))
+        mask = cv2.imread(p("mask"), cv2.IMREAD_GRAYSCALE)
+        sel = (truth > 0) & (mask > 0)
+        ests = {"orbfix core": (load16(p("core")), ix["core_ms_per_view"] / 1e3)}
+        for name, m in (("OpenCV StereoSGBM", sgbm), ("OpenCV StereoBM", bm)):
+            t = time.perf_counter()
+            d = m.compute(left, right)
+            secs = time.perf_counter() - t
+            d = d.astype(np.float32) / 16.0
+            d[d <= 0] = 0
+            ests[name] = (d, secs)
+        for name, (d, secs) in ests.items():
+            a = acc[name]
+            a["n"] += int(sel.sum())
+            valid = sel & (d > 0)
+            err = np.abs(d[valid] - truth[valid])
+            a["cover"] += int(valid.sum())
+            a["bad1"] += int((err > 1).sum())
+            a["bad3"] += int((err > 3).sum())
+            a["abs"] += float(err.sum())
+            a["secs"] += secs
+    nviews = len(ix["entries"])
+    rows = []
+    for m in methods:
+        a = acc[m]
+        c = max(a["cover"], 1)
+        rows.append(dict(method=m, coverage=a["cover"] / max(a["n"], 1), bad1=a["bad1"] / c,
+                         bad3=a["bad3"] / c, mae=a["abs"] / c, ms_per_view=1e3 * a["secs"] / nviews,
+                         good_of_all=(a["cover"] - a["bad1"]) / max(a["n"], 1)))
+    w, h = ix["size"]
+    print(f"{nviews} pairs, {w} x {h} (rendered {ix['render_size'][0]} x {ix['render_size'][1]}, "
+          f"downsample {ix['downsample']}), baseline {ix['baseline_m']:.3g} m, noise {ix['noise_sigma']} gray, "
+          f"right gain {ix['right_gain']}; OpenCV {cv2.__version__}, numDisparities {ndisp}, 1 thread; "
+          f"pixels scored: {acc[methods[0]]['n']} (true disparity, inside the 50 m square)")
+    print()
+    print("| method | coverage | bad > 1 px | bad > 3 px | mean abs error, px | within 1 px, of all scored | ms per view |")
+    print("|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['method']} | {100 * r['coverage']:.1f} % | {100 * r['bad1']:.2f} % | "
+              f"{100 * r['bad3']:.2f} % | {r['mae']:.3f} | {100 * r['good_of_all']:.1f} % | "
+              f"{r['ms_per_view']:.2f} |")
+    core, sg = rows[0], rows[1]
+    ratio = core["bad1"] / sg["bad1"] if sg["bad1"] > 0 else float("inf")
+    print()
+    print(f"core bad > 1 px / SGBM bad > 1 px: {ratio:.2f} (target <= 1.5)")
+    if args.json:
+        with open(args.json + ".tmp", "w") as f:
+            json.dump(dict(rows=rows, ratio_bad1_core_over_sgbm=ratio, index=ix_path), f, indent=2)
+        os.replace(args.json + ".tmp", args.json)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,175 @@
+//! Disparity range of each row from the rig and the ground the top-down square holds.
+//!
+//! For a level rover the flat ground seen by a row at normalized coordinate
+//! `yn = (v + 0.5 - cy) / f` lies at depth `Z = h / s` with `s = sin t + yn cos t` (`h`:
+//! camera height, metres; `t`: tilt): its disparity `f B s / h` grows linearly down the
+//! image and is the same along the row. Relief between `+above` and `-below` metres around
+//! the ground under the rover moves it to `f B s / (h - dz)`; pitch and roll up to `m`
+//! degrees turn `s` by at most `m` in tilt and `tan(hfov / 2) sin m` across the row. So a
+//! row searches `[f B max(s_lo / (h + below), 1 / Zmax), f B s_hi / (h - above)]`, widened by
+//! one pixel on each side so that every true disparity in range is an interior winner
+//! (`Zmax`: the largest depth of a point within `max_ground_range_m`). Rows with
+//! `s_hi <= 0` only see sky (nothing there is lower than the camera minus `above`) and are
+//! skipped. Set-up math (`f32`, once per rig).
+
+use super::StereoParams;
+use crate::camera::CameraParams;
+
+/// The per-row disparity search ranges of one rig (integer pixels at the working size).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowRanges {
+    focal: f32,
+    cy: f32,
+    height: usize,
+    width: usize,
+    fb: f32,
+    h: f32,
+    above: f32,
+    below: f32,
+    inv_zmax: f32,
+    sin_t: [f32; 2],
+    cos_t: [f32; 2],
+    roll_term: f32,
+    radius: usize,
+}
+
+impl RowRanges {
+    pub(crate) fn new(
+        camera: &CameraParams,
+        p: &StereoParams,
+        width: usize,
+        height: usize,
+    ) -> Self {
+        let k = f32::from(p.downsample);
+        let focal = camera.focal_px() / k;
+        let m = p.attitude_margin_deg.to_radians();
+        let t = camera.tilt_deg.to_radians();
+        let (t0, t1) = (t - m, t + m);
+        let half = libm::tanf(0.5 * camera.hfov_deg.to_radians());
+        let depth_lim = camera.height_m + p.relief_below_m;
+        let zmax = libm::sqrtf(p.max_ground_range_m * p.max_ground_range_m + depth_lim * depth_lim);
+        Self {
+            focal,
+            cy: 0.5 * camera.height_px as f32 / k,
+            height,
+            width,
+            fb: focal * p.baseline_m,
+            h: camera.height_m,
+            above: p.relief_above_m,
+            below: p.relief_below_m,
+            inv_zmax: 1.0 / zmax,
+            sin_t: [libm::sinf(t0), libm::sinf(t1)],
+            cos_t: [libm::cosf(t0), libm::cosf(t1)],
+            roll_term: half * libm::sinf(m),
+            radius: usize::from(p.radius_px),
+        }
+    }
+
+    /// Focal length at the working size, pixels.
+    pub fn focal_px(&self) -> f32 {
+        self.focal
+    }
+
+    /// The disparities searched in row `v` (working size), inclusive, or `None` when the
+    /// row only sees sky (or lies outside the image).
+    pub fn row(&self, v: usize) -> Option<(usize, usize)> {
+        if v >= self.height {
+            return None;
+        }
+        let yn = (v as f32 + 0.5 - self.cy) / self.focal;
+        let s0 = self.sin_t[0] + yn * self.cos_t[0];
+        let s1 = self.sin_t[1] + yn * self.cos_t[1];
+        let s_lo = s0.min(s1) - self.roll_term;
+        let s_hi = s0.max(s1) + self.roll_term;
+        if s_hi.is_nan() || s_hi <= 0.0 {
+            return None;
+        }
+        let d_lo = self.fb * (s_lo / (self.h + self.below)).max(self.inv_zmax);
+        let d_hi = self.fb * s_hi / (self.h - self.above);
+        // Leave the columns a window needs: at most width - 2r - 2.
+        let cap = self.width.saturating_sub(2 * self.radius + 2) as f32;
+        let lo = (libm::floorf(d_lo) - 1.0).clamp(0.0, cap);
+        let hi = (libm::ceilf(d_hi) + 1.0).clamp(lo + 2.0, cap.max(lo + 2.0));
+        Some((lo as usize, hi as usize))
+    }
+
+    /// The first row that is searched (rows above only see sky); `height` if none.
+    pub fn first_active(&self) -> usize {
+        (0..self.height)
+            .find(|&v| self.row(v).is_some())
+            .unwrap_or(self.height)
+    }
+
+    /// Union of the ranges of rows `a..b`: `(lo, hi)` inclusive, or `None` if all are sky.
+    pub fn union(&self, a: usize, b: usize) -> Option<(usize, usize)> {
+        let mut out: Option<(usize, usize)> = None;
+        for v in a..b.min(self.height) {
+            if let Some((lo, hi)) = self.row(v) {
+                out = Some(match out {
+                    Some((l, h)) => (l.min(lo), h.max(hi)),
+                    None => (lo, hi),
+                });
+            }
+        }
+        out
+    }
+
+    /// Largest disparity searched anywhere, pixels.
+    pub fn global_max(&self) -> usize {
+        self.union(0, self.height).map_or(0, |(_, h)| h)
+    }
+
+    /// Disparities in the union of all rows (an upper bound for any band).
+    pub fn max_disparities(&self) -> usize {
+        self.union(0, self.height).map_or(0, |(l, h)| h + 1 - l)
+    }
+
+    /// Pixel-disparities the winner-take-all of rows `a..b` evaluates (columns with a full
+    /// window times the row's range): the instruction-relevant work.
+    pub fn row_work(&self, a: usize, b: usize) -> u64 {
+        let cols = self.width.saturating_sub(2 * self.radius) as u64;
+        (a..b.min(self.height))
+            .filter_map(|v| self.row(v))
+            .map(|(lo, hi)| cols * (hi + 1 - lo) as u64)
+            .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flat_ground_inside_each_range_and_sky_skipped() {
+        let cam = CameraParams::default();
+        let p = StereoParams::default();
+        let r = RowRanges::new(&cam, &p, 320, 180);
+        let f = r.focal_px();
+        assert!((f - 160.0).abs() < 1e-3);
+        let first = r.first_active();
+        // Horizon at yn = -tan(15 deg) - margin: about row 90 - 43 - a few.
+        assert_eq!(first, 35, "horizon row with the 2 deg margin");
+        let t = 15f32.to_radians();
+        for v in first..180 {
+            let (lo, hi) = r.row(v).unwrap();
+            let yn = (v as f32 + 0.5 - 90.0) / f;
+            let s = libm::sinf(t) + yn * libm::cosf(t);
+            let z = 2.0 / s;
+            let d = f * 0.3 / z;
+            if s > 0.0 && z * libm::cosf(t) < 35.0 {
+                assert!(
+                    lo as f32 + 1.0 <= d && d <= hi as f32 - 1.0,
+                    "{v}: {lo} {d} {hi}"
+                );
+            }
+        }
+        // The bottom row: flat ground at ~19 px; relief +0.5 m: 26 px, -2 m: 9.6 px.
+        let (lo, hi) = r.row(179).unwrap();
+        assert!(
+            (6..=9).contains(&lo) && (27..=32).contains(&hi),
+            "{lo} {hi}"
+        );
+        assert!(r.row(0).is_none());
+        assert!(r.max_disparities() >= hi - r.row(first).unwrap().0);
+    }
+}
