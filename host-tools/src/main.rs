@@ -52,6 +52,12 @@ enum Command {
     Train(cmd::train::Args),
     /// Quantize a trained matcher to int8 and write the core's weight file.
     Quantize(cmd::quantize::Args),
+    /// Write the int8 network as a TensorFlow Lite model (.tflite) for TFLite Micro.
+    ExportTflite(cmd::export_tflite::Args),
+    /// Embed a batch of int8 network inputs (.npy) with the core; int8 embeddings to .npy.
+    Embed(cmd::embed::Args),
+    /// Write a dataset's network inputs (rover top-downs, satellite crops) as one .npy batch.
+    PrepareInputs(cmd::prepare_inputs::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -74,6 +80,9 @@ fn main() -> anyhow::Result<()> {
         Command::Budget(args) => cmd::budget::run(args)?,
         Command::Train(a) => cmd::train::run(a)?,
         Command::Quantize(a) => cmd::quantize::run(a)?,
+        Command::ExportTflite(a) => cmd::export_tflite::run(a)?,
+        Command::Embed(a) => cmd::embed::run(a)?,
+        Command::PrepareInputs(a) => cmd::prepare_inputs::run(a)?,
     }
     Ok(())
 }
