@@ -18,8 +18,9 @@ mkdir -p "$W"
 cargo build -q --release -p orbfix-host
 B=${CARGO_TARGET_DIR:-$(pwd)/target}/release/orbfix
 "$B" export-tflite --out "$W/matcher.tflite"
-"$B" generate --preset smoke --seed 13 --count "$LOCATIONS" --out "$W/smoke-$LOCATIONS" --quiet
-"$B" prepare-inputs --dataset "$W/smoke-$LOCATIONS" --out "$W/real.npy"
+rm -rf "$W/smoke"
+"$B" generate --preset smoke --seed 13 --count "$LOCATIONS" --out "$W/smoke" --quiet
+"$B" prepare-inputs --dataset "$W/smoke" --out "$W/real.npy"
 "$PY" scripts/tflm_check.py inputs --real "$W/real.npy" --random "$RANDOM_N" --seed 1 --out "$W/inputs.npy"
 "$B" embed --input "$W/inputs.npy" --out "$W/orbfix.npy"
 "$PY" scripts/tflm_check.py compare --model "$W/matcher.tflite" --inputs "$W/inputs.npy" --orbfix "$W/orbfix.npy"

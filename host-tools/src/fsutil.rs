@@ -52,7 +52,9 @@ pub fn png_gray8(img: &GrayImage) -> anyhow::Result<Vec<u8>> {
     Ok(out)
 }
 
-/// PNG bytes of a 16-bit gray raster (row-major values), fixed settings.
+/// PNG bytes of a 16-bit gray raster (row-major values), fixed settings. The file holds the
+/// values big-endian, as the PNG standard requires (the encoder takes native-endian samples
+/// and swaps them itself), so every PNG reader (Pillow, libpng, GDAL) reads the same values.
 pub fn png_gray16(w: u32, h: u32, values: &[u16]) -> anyhow::Result<Vec<u8>> {
     if values.len() != w as usize * h as usize {
         bail!(
@@ -62,7 +64,7 @@ pub fn png_gray16(w: u32, h: u32, values: &[u16]) -> anyhow::Result<Vec<u8>> {
             h
         );
     }
-    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_ne_bytes()).collect();
     let mut out = Vec::new();
     PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
         .write_image(&bytes, w, h, ExtendedColorType::L16)
@@ -109,4 +111,19 @@ pub fn read_gray_png(path: &Path, size: Option<(u32, u32)>) -> anyhow::Result<Gr
         }
     }
     Ok(img)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gray16_png_reads_back_with_a_standard_decoder() {
+        // `image`'s decoder reads PNG's big-endian samples into native values: a file
+        // written byte-swapped would read back swapped.
+        let values: Vec<u16> = vec![1, 253, 0x1234, 65535, 0, 700];
+        let png = png_gray16(3, 2, &values).unwrap();
+        let back = image::load_from_memory(&png).unwrap().into_luma16();
+        assert_eq!(back.as_raw(), &values);
+    }
 }

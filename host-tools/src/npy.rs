@@ -18,9 +18,8 @@ pub struct I8Array {
 /// Errors (sentences that say what to fix): not a `.npy` file, a dtype other than int8
 /// (`|i1`), Fortran order, or fewer data bytes than the header declares.
 pub fn read_i8(bytes: &[u8], what: &str) -> Result<I8Array> {
-    let npy = npyz::NpyFile::new(bytes).with_context(|| {
-        format!("{what} is not a NumPy .npy file (write it with numpy.save)")
-    })?;
+    let npy = npyz::NpyFile::new(bytes)
+        .with_context(|| format!("{what} is not a NumPy .npy file (write it with numpy.save)"))?;
     let dtype = npy.dtype();
     let int8 = matches!(&dtype, npyz::DType::Plain(t) if t.type_char() == npyz::TypeChar::Int && t.size_field() == 1);
     if !int8 {

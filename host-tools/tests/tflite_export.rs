@@ -15,7 +15,12 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
 fn shipped_model() -> Vec<u8> {
-    export(&HostQModel::from_bytes(SHIPPED_WEIGHTS).unwrap(), "test", false).unwrap()
+    export(
+        &HostQModel::from_bytes(SHIPPED_WEIGHTS).unwrap(),
+        "test",
+        false,
+    )
+    .unwrap()
 }
 
 /// An int8 NHWC activation with its quantization.
@@ -61,7 +66,11 @@ fn pad(a: &Act, top: usize, bottom: usize, left: usize, right: usize, value: i32
             }
         }
     }
-    Act { dims: d, data, ..*a }
+    Act {
+        dims: d,
+        data,
+        ..*a
+    }
 }
 
 /// Runs the model's one subgraph on `input` with TFLite's operator semantics.
@@ -220,15 +229,33 @@ fn structure_and_constants_are_the_weight_file() {
     // Stride-2 layers on even sizes: PAD + VALID; the stride-1 3x3 and the 1x1 layer: one op.
     assert_eq!(
         ops,
-        [B::PAD, B::CONV_2D, B::PAD, B::CONV_2D, B::PAD, B::CONV_2D, B::CONV_2D, B::CONV_2D]
+        [
+            B::PAD,
+            B::CONV_2D,
+            B::PAD,
+            B::CONV_2D,
+            B::PAD,
+            B::CONV_2D,
+            B::CONV_2D,
+            B::CONV_2D
+        ]
     );
     let tensors = g.tensors().unwrap();
     let input = tensors.get(g.inputs().unwrap().get(0) as usize);
     assert_eq!(input.type_(), tflite::TensorType::INT8);
-    assert_eq!(input.shape().unwrap().iter().collect::<Vec<_>>(), [1, 64, 64, 1]);
-    assert_eq!(quant(&input), (vec![q.input_scale], vec![q.input_zp as i64]));
+    assert_eq!(
+        input.shape().unwrap().iter().collect::<Vec<_>>(),
+        [1, 64, 64, 1]
+    );
+    assert_eq!(
+        quant(&input),
+        (vec![q.input_scale], vec![q.input_zp as i64])
+    );
     let output = tensors.get(g.outputs().unwrap().get(0) as usize);
-    assert_eq!(output.shape().unwrap().iter().collect::<Vec<_>>(), [1, 8, 8, 32]);
+    assert_eq!(
+        output.shape().unwrap().iter().collect::<Vec<_>>(),
+        [1, 8, 8, 32]
+    );
     let convs: Vec<_> = g
         .operators()
         .unwrap()
@@ -247,7 +274,10 @@ fn structure_and_constants_are_the_weight_file() {
         assert_eq!(w.type_(), tflite::TensorType::INT8);
         let wq = w.quantization().unwrap();
         assert_eq!(wq.quantized_dimension(), 0);
-        assert_eq!(wq.scale().unwrap().iter().collect::<Vec<_>>(), l.weight_scale);
+        assert_eq!(
+            wq.scale().unwrap().iter().collect::<Vec<_>>(),
+            l.weight_scale
+        );
         let wd: Vec<i8> = buffers
             .get(w.buffer() as usize)
             .data()
@@ -258,14 +288,22 @@ fn structure_and_constants_are_the_weight_file() {
         assert_eq!(wd, l.weights);
         let b = tensors.get(op.inputs().unwrap().get(2) as usize);
         assert_eq!(b.type_(), tflite::TensorType::INT32);
-        let bd: Vec<u8> = buffers.get(b.buffer() as usize).data().unwrap().iter().collect();
+        let bd: Vec<u8> = buffers
+            .get(b.buffer() as usize)
+            .data()
+            .unwrap()
+            .iter()
+            .collect();
         let bd: Vec<i32> = bd
             .chunks_exact(4)
             .map(|c| i32::from_le_bytes(c.try_into().unwrap()))
             .collect();
         assert_eq!(bd, l.bias);
         let out = tensors.get(op.outputs().unwrap().get(0) as usize);
-        assert_eq!(quant(&out), (vec![l.output_scale], vec![l.output_zp as i64]));
+        assert_eq!(
+            quant(&out),
+            (vec![l.output_scale], vec![l.output_zp as i64])
+        );
     }
 }
 
@@ -295,9 +333,6 @@ fn f64_multipliers_are_refused() {
     let mut q = HostQModel::from_bytes(SHIPPED_WEIGHTS).unwrap();
     q.layers[1].multiplier[5] += 7;
     let e = export(&q, "t", false).unwrap_err();
-    assert!(
-        format!("{e:#}").contains("--rederive-multipliers"),
-        "{e:#}"
-    );
+    assert!(format!("{e:#}").contains("--rederive-multipliers"), "{e:#}");
     assert!(export(&q, "t", true).is_ok());
 }

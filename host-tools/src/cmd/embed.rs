@@ -29,7 +29,10 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let weights = match &a.weights {
         Some(p) => std::fs::read(p).with_context(|| {
-            format!("cannot read the weight file {} (give an existing .ofw file)", p.display())
+            format!(
+                "cannot read the weight file {} (give an existing .ofw file)",
+                p.display()
+            )
         })?,
         None => orbfix::nn::model::SHIPPED_WEIGHTS.to_vec(),
     };
@@ -48,8 +51,10 @@ pub fn run(a: Args) -> Result<()> {
     };
     let bar = indicatif::ProgressBar::new(n as u64);
     bar.set_style(
-        indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} embeddings")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        indicatif::ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:30}] {pos}/{len} embeddings",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     let mut out = vec![0i8; n * EMBED_LEN];
     out.par_chunks_mut(EMBED_LEN)

@@ -30,7 +30,10 @@ pub fn run(a: Args) -> Result<()> {
     let (bytes, name) = match &a.weights {
         Some(p) => (
             std::fs::read(p).with_context(|| {
-                format!("cannot read the weight file {} (give an existing .ofw file)", p.display())
+                format!(
+                    "cannot read the weight file {} (give an existing .ofw file)",
+                    p.display()
+                )
             })?,
             p.display().to_string(),
         ),

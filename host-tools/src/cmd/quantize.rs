@@ -65,8 +65,8 @@ fn rederive(input: &std::path::Path, out: &std::path::Path) -> Result<()> {
             input.display()
         )
     })?;
-    let mut q = HostQModel::from_bytes(&bytes)
-        .with_context(|| format!("reading {}", input.display()))?;
+    let mut q =
+        HostQModel::from_bytes(&bytes).with_context(|| format!("reading {}", input.display()))?;
     let channels: usize = q.layers.iter().map(|l| l.out_c).sum();
     let changed = rederive_multipliers(&mut q);
     let bytes = q.to_bytes();

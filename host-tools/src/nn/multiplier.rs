@@ -84,9 +84,8 @@ mod tests {
         let (s_in, s_w, s_out) = (1.0f64 / 32.0, 1.0f64 / 3.0 / 127.0, 0.1f64);
         let from_f64 = quantize_multiplier(s_in * s_w / s_out);
         let from_f32 = tflite_multiplier(s_in as f32, s_w as f32, s_out as f32);
-        let expected = quantize_multiplier(
-            (s_in as f32) as f64 * (s_w as f32) as f64 / (s_out as f32) as f64,
-        );
+        let expected =
+            quantize_multiplier((s_in as f32) as f64 * (s_w as f32) as f64 / (s_out as f32) as f64);
         assert_eq!(from_f32, expected);
         assert_ne!(from_f32, from_f64);
     }

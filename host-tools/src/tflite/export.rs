@@ -27,8 +27,10 @@ use flatbuffers::{FlatBufferBuilder, ForwardsUOffset, Vector, WIPOffset};
 pub const TFLITE_SCHEMA_VERSION: u32 = 3;
 
 /// Operators the exporter writes, in `operator_codes` order.
-const OPCODES: [tflite::BuiltinOperator; 2] =
-    [tflite::BuiltinOperator::CONV_2D, tflite::BuiltinOperator::PAD];
+const OPCODES: [tflite::BuiltinOperator; 2] = [
+    tflite::BuiltinOperator::CONV_2D,
+    tflite::BuiltinOperator::PAD,
+];
 const OP_CONV: u32 = 0;
 const OP_PAD: u32 = 1;
 

@@ -74,7 +74,10 @@ mod tests {
     fn stride_one_and_odd_sizes_are_same() {
         assert_eq!(plan(8, 8, 3, 1, 1), Some(PaddingPlan::Same));
         assert_eq!(plan(65, 65, 3, 2, 1), Some(PaddingPlan::Same));
-        assert_eq!(plan(9, 8, 3, 2, 1), Some(PaddingPlan::PadThenValid { pad: 1 }));
+        assert_eq!(
+            plan(9, 8, 3, 2, 1),
+            Some(PaddingPlan::PadThenValid { pad: 1 })
+        );
         assert_eq!(plan(8, 8, 1, 1, 0), Some(PaddingPlan::Valid));
         assert_eq!(plan(8, 8, 3, 1, 0), Some(PaddingPlan::Valid));
         assert_eq!(plan(2, 2, 5, 1, 0), None);
