@@ -14,6 +14,15 @@ cargo clippy --workspace --all-targets -- -D warnings
 step "tests (core and host tools)"
 cargo test --workspace
 
+step "Python interop: TensorFlow Lite Micro bit-exactness, dataset loader (docs/interop.md)"
+if [ "${ORBFIX_SKIP_TFLM:-0}" = 1 ]; then
+  echo "skipped (ORBFIX_SKIP_TFLM=1)"
+else
+  # Pinned tflite-micro, numpy and Pillow from PyPI into .cache/py-venv (python3-venv needed).
+  bash scripts/tflm-check.sh
+  bash scripts/python-check.sh
+fi
+
 step "flight target: Cortex-M7 (thumbv7em-none-eabihf) build, no-panic link, QEMU run, bit-exact"
 if [ "${ORBFIX_SKIP_FLIGHT:-0}" = 1 ]; then
   echo "skipped (ORBFIX_SKIP_FLIGHT=1)"

@@ -52,7 +52,9 @@ pub fn png_gray8(img: &GrayImage) -> anyhow::Result<Vec<u8>> {
     Ok(out)
 }
 
-/// PNG bytes of a 16-bit gray raster (row-major values), fixed settings.
+/// PNG bytes of a 16-bit gray raster (row-major values), fixed settings. The file holds the
+/// values big-endian, as the PNG standard requires (the encoder takes native-endian samples
+/// and swaps them itself), so every PNG reader (Pillow, libpng, GDAL) reads the same values.
 pub fn png_gray16(w: u32, h: u32, values: &[u16]) -> anyhow::Result<Vec<u8>> {
     if values.len() != w as usize * h as usize {
         bail!(

@@ -58,6 +58,12 @@ enum Command {
     ExportGeotiff(cmd::export_geotiff::Args),
     /// Print what orbfix reads from a GeoTIFF (georeference, CRS, values) as JSON.
     GeotiffInfo(cmd::geotiff_info::Args),
+    /// Write the int8 network as a TensorFlow Lite model (.tflite) for TFLite Micro.
+    ExportTflite(cmd::export_tflite::Args),
+    /// Embed a batch of int8 network inputs (.npy) with the core; int8 embeddings to .npy.
+    Embed(cmd::embed::Args),
+    /// Write a dataset's network inputs (rover top-downs, satellite crops) as one .npy batch.
+    PrepareInputs(cmd::prepare_inputs::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -83,6 +89,9 @@ fn main() -> anyhow::Result<()> {
         Command::Quantize(a) => cmd::quantize::run(a)?,
         Command::ExportGeotiff(a) => cmd::export_geotiff::run(a)?,
         Command::GeotiffInfo(a) => cmd::geotiff_info::run(a)?,
+        Command::ExportTflite(a) => cmd::export_tflite::run(a)?,
+        Command::Embed(a) => cmd::embed::run(a)?,
+        Command::PrepareInputs(a) => cmd::prepare_inputs::run(a)?,
     }
     Ok(())
 }

@@ -1,6 +1,10 @@
 //! `orbfix quantize`: post-training int8 quantization of a trained checkpoint, calibrated
 //! on validation-zone inputs; writes the `.ofw` file the core embeds, checks it with the
 //! core's own parser, and evaluates float vs int8 (vs masked NCC) on the test zone.
+//!
+//! `--rederive-multipliers --weights IN.ofw` instead rewrites an existing file's
+//! multipliers and shifts from its own stored scales (TFLite's derivation,
+//! `orbfix_host::nn::multiplier`), leaving weights, biases, scales and zero points as they are.
 
 use anyhow::{Context, Result};
 use orbfix::nn::model::{embedding_macs, weight_count, SiameseNet};
@@ -41,6 +45,47 @@ pub struct Args {
     /// Write the metrics as JSON here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Do not quantize a checkpoint: rewrite the multipliers and shifts of the weight file
+    /// given with --weights from its own stored f32 scales, as TensorFlow Lite derives them
+    /// (same weights, biases, scales and zero points), and write it to --out.
+    #[arg(long, requires = "weights")]
+    pub rederive_multipliers: bool,
+    /// Weight file to re-derive (with --rederive-multipliers).
+    #[arg(long, requires = "rederive_multipliers")]
+    pub weights: Option<PathBuf>,
+}
+
+/// `--rederive-multipliers`: rewrites only the requantization multipliers of `input`.
+fn rederive(input: &std::path::Path, out: &std::path::Path) -> Result<()> {
+    use orbfix_host::nn::multiplier::rederive_multipliers;
+    use orbfix_host::nn::qmodel::HostQModel;
+    let bytes = std::fs::read(input).with_context(|| {
+        format!(
+            "cannot read the weight file {} (give an existing .ofw file with --weights)",
+            input.display()
+        )
+    })?;
+    let mut q =
+        HostQModel::from_bytes(&bytes).with_context(|| format!("reading {}", input.display()))?;
+    let channels: usize = q.layers.iter().map(|l| l.out_c).sum();
+    let changed = rederive_multipliers(&mut q);
+    let bytes = q.to_bytes();
+    SiameseNet::from_bytes(&bytes).map_err(|e| {
+        anyhow::anyhow!("the core rejects the re-derived file ({e:?}); it was not written")
+    })?;
+    if let Some(dir) = out.parent() {
+        if !dir.as_os_str().is_empty() {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+    }
+    orbfix_host::fsutil::write_atomic(out, &bytes)?;
+    println!(
+        "{}: {changed} of {channels} channels' (multiplier, shift) re-derived from the stored scales; wrote {} ({} bytes)",
+        input.display(),
+        out.display(),
+        bytes.len()
+    );
+    Ok(())
 }
 
 fn row(name: &str, m: &Metrics) {
@@ -57,6 +102,9 @@ fn row(name: &str, m: &Metrics) {
 }
 
 pub fn run(a: Args) -> Result<()> {
+    if let (true, Some(input)) = (a.rederive_multipliers, &a.weights) {
+        return rederive(input, &a.out);
+    }
     let net = FloatNet::load(&a.checkpoint)?;
     let world = World::new(a.world_seed);
     anyhow::ensure!(a.calibration >= 2, "--calibration must be at least 2");

@@ -6,9 +6,10 @@ use image::GrayImage;
 use orbfix::camera::RoverPose;
 use orbfix::image::ImageView;
 use orbfix::reproject::{
-    equalize_rings, table_len, Cell, FrameStatus, GridSpec, Lut, Tap, DEFAULT_EXTRA,
+    equalize_rings, table_len, ApplyReport, BuildStats, Cell, FrameStatus, GridSpec, Lut, Tap,
+    DEFAULT_EXTRA,
 };
-use orbfix_host::dataset::Dataset;
+use orbfix_host::dataset::{Dataset, ManifestRow};
 use orbfix_host::fsutil::write_png;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -86,6 +87,85 @@ fn masked_ncc(a: &[u8], b: &[u8], mask: &[u8]) -> Option<f64> {
     (saa > 0.0 && sbb > 0.0).then(|| sab / (saa * sbb).sqrt())
 }
 
+/// A dataset location's flat-ground top-down image on a grid, made with the flight core's
+/// lookup table ([`top_down`]).
+pub struct TopDown {
+    /// Grid side, cells.
+    pub n: usize,
+    /// `n * n` gray levels, north-up, 0 where no data.
+    pub image: Vec<u8>,
+    /// `n * n`, 255 valid, 0 no data.
+    pub mask: Vec<u8>,
+    /// What the table application did.
+    pub report: ApplyReport,
+    /// What the table build produced.
+    pub stats: BuildStats,
+    /// Bytes of the lookup table.
+    pub table_bytes: usize,
+    /// Time of the table build.
+    pub build_time: std::time::Duration,
+    /// Time of the table application.
+    pub apply_time: std::time::Duration,
+}
+
+/// Reprojects the four views of dataset location `row` onto `grid` (flat ground at the
+/// rover's elevation, flight core's lookup table); views listed in `dropped` (0 front,
+/// 1 right, 2 rear, 3 left) are treated as missing.
+pub fn top_down(
+    ds: &Dataset,
+    row: &ManifestRow,
+    grid: &GridSpec,
+    dropped: &[usize],
+) -> Result<TopDown> {
+    let n = grid.n;
+    let params = ds.info.config.render.camera_params();
+    let pose = RoverPose::level(
+        row.x_m as f32,
+        row.y_m as f32,
+        row.ground_z_m as f32,
+        row.yaw_deg as f32,
+    );
+    let views: [GrayImage; 4] = ds
+        .load_views(row)
+        .with_context(|| format!("loading the views of {}", row.id))?;
+    let (w, h) = (params.width_px as usize, params.height_px as usize);
+    let mut frames: [Option<ImageView<'_>>; 4] = [None; 4];
+    for (k, (f, img)) in frames.iter_mut().zip(views.iter()).enumerate() {
+        let dropped = dropped.contains(&k);
+        if !dropped {
+            *f = Some(
+                ImageView::new(img.as_raw(), w, h)
+                    .map_err(|e| anyhow::anyhow!("{} view of {}: {e:?}", NAMES[k], row.id))?,
+            );
+        }
+    }
+
+    let cells_n = table_len(n);
+    let mut cells = vec![Cell::EMPTY; cells_n];
+    let mut extra = vec![Tap::EMPTY; DEFAULT_EXTRA.max(cells_n / 8)];
+    let t0 = Instant::now();
+    let lut = Lut::build(&mut cells, &mut extra, &params, &pose, grid, w)
+        .map_err(|e| anyhow::anyhow!("building the lookup table: {e:?}"))?;
+    let t_build = t0.elapsed();
+    let mut out = vec![0u8; cells_n];
+    let mut mask = vec![0u8; cells_n];
+    let t1 = Instant::now();
+    let report = lut
+        .apply(&frames, &mut out, &mut mask)
+        .map_err(|e| anyhow::anyhow!("reprojecting: {e:?}"))?;
+    let t_apply = t1.elapsed();
+    Ok(TopDown {
+        n,
+        image: out,
+        mask,
+        report,
+        stats: *lut.stats(),
+        table_bytes: lut.bytes(),
+        build_time: t_build,
+        apply_time: t_apply,
+    })
+}
+
 /// Runs the command.
 pub fn run(args: Args) -> Result<()> {
     let ds = Dataset::open(&args.dataset)
@@ -120,42 +200,11 @@ pub fn run(args: Args) -> Result<()> {
         );
         grid.max_range_m = r;
     }
-    let params = ds.info.config.render.camera_params();
-    let pose = RoverPose::level(
-        row.x_m as f32,
-        row.y_m as f32,
-        row.ground_z_m as f32,
-        row.yaw_deg as f32,
-    );
-    let views: [GrayImage; 4] = ds
-        .load_views(row)
-        .with_context(|| format!("loading the views of {}", row.id))?;
-    let (w, h) = (params.width_px as usize, params.height_px as usize);
-    let mut frames: [Option<ImageView<'_>>; 4] = [None; 4];
-    for (k, (f, img)) in frames.iter_mut().zip(views.iter()).enumerate() {
-        let dropped = args.drop.iter().any(|d| *d as usize == k);
-        if !dropped {
-            *f = Some(
-                ImageView::new(img.as_raw(), w, h)
-                    .map_err(|e| anyhow::anyhow!("{} view of {}: {e:?}", NAMES[k], row.id))?,
-            );
-        }
-    }
-
+    let dropped: Vec<usize> = args.drop.iter().map(|d| *d as usize).collect();
+    let td = top_down(&ds, row, &grid, &dropped)?;
+    let (n, mut out, mask, report) = (td.n, td.image, td.mask, td.report);
+    let (t_build, t_apply) = (td.build_time, td.apply_time);
     let cells_n = table_len(n);
-    let mut cells = vec![Cell::EMPTY; cells_n];
-    let mut extra = vec![Tap::EMPTY; DEFAULT_EXTRA.max(cells_n / 8)];
-    let t0 = Instant::now();
-    let lut = Lut::build(&mut cells, &mut extra, &params, &pose, &grid, w)
-        .map_err(|e| anyhow::anyhow!("building the lookup table: {e:?}"))?;
-    let t_build = t0.elapsed();
-    let mut out = vec![0u8; cells_n];
-    let mut mask = vec![0u8; cells_n];
-    let t1 = Instant::now();
-    let report = lut
-        .apply(&frames, &mut out, &mut mask)
-        .map_err(|e| anyhow::anyhow!("reprojecting: {e:?}"))?;
-    let t_apply = t1.elapsed();
     let ring_cells = ((1.0 / res).round() as u32).max(1);
     let out_raw = out.clone();
     let mut equalized = out.clone();
@@ -173,19 +222,18 @@ pub fn run(args: Args) -> Result<()> {
         write_png(mp, &m).with_context(|| format!("writing {}", mp.display()))?;
     }
 
-    let s = lut.stats();
     println!(
         "{}: {n} x {n} cells at {res} m, heading {:.1} deg; {} valid ({:.1} %), {} feathered",
         row.id,
         row.yaw_deg,
         report.valid_cells,
         100.0 * report.valid_cells as f64 / cells_n as f64,
-        s.blended_cells
+        td.stats.blended_cells
     );
     println!(
         "table {} B ({:.2} B/cell), build {:.2} ms, apply {:.3} ms (debug builds are slower; `orbfix bench reproject` for speed)",
-        lut.bytes(),
-        lut.bytes() as f64 / cells_n as f64,
+        td.table_bytes,
+        td.table_bytes as f64 / cells_n as f64,
         t_build.as_secs_f64() * 1e3,
         t_apply.as_secs_f64() * 1e3
     );

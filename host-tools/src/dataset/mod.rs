@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Version of the generator; part of `dataset.json`. Bump when outputs change.
-pub const GENERATOR_VERSION: &str = "orbfix-generate/1";
+pub const GENERATOR_VERSION: &str = "orbfix-generate/2";
 
 /// Names of the four views in dataset order.
 pub const VIEW_NAMES: [&str; 4] = ["front", "right", "rear", "left"];
@@ -571,7 +571,7 @@ pub fn generate(
         let new_v: serde_json::Value = serde_json::from_str(&info_json)?;
         if old_v != new_v {
             bail!(
-                "{} holds a dataset made with other options (seed, preset, size or suns differ); use another --out or delete it",
+                "{} holds a dataset made with other options or another generator version (seed, preset, size, suns or `generator_version` in dataset.json differ); use another --out or delete it",
                 dir.display()
             );
         }

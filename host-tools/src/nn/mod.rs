@@ -6,6 +6,7 @@ pub mod data;
 pub mod eval;
 pub mod float_matcher;
 pub mod float_model;
+pub mod multiplier;
 pub mod qmodel;
 pub mod quantize;
 pub mod realdata;

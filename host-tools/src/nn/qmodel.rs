@@ -72,22 +72,15 @@ pub struct HostQModel {
 }
 
 /// Encodes a real multiplier `m >= 0` as `(q, shift)` with `m ~= q / 2^31 * 2^shift`,
-/// `q` in `[2^30, 2^31)` (TFLite `QuantizeMultiplier`). Tiny multipliers become `(0, 0)`.
+/// `q` in `[2^30, 2^31)`, exactly as TFLite's `QuantizeMultiplier` does (`frexp`, round half
+/// away from zero, `q == 2^31` renormalized). Multipliers below `2^-32` become `(0, 0)`;
+/// above `2^30` they saturate to `(i32::MAX, 30)` (the core's shift range).
 pub fn quantize_multiplier(m: f64) -> (i32, i8) {
     if m <= 0.0 || !m.is_finite() {
         return (0, 0);
     }
     // m = frac * 2^exp with frac in [0.5, 1).
-    let mut exp = m.log2().floor() as i32 + 1;
-    let mut frac = m / 2f64.powi(exp);
-    if frac >= 1.0 {
-        frac /= 2.0;
-        exp += 1;
-    }
-    if frac < 0.5 {
-        frac *= 2.0;
-        exp -= 1;
-    }
+    let (frac, mut exp) = libm::frexp(m);
     let mut q = (frac * (1u64 << 31) as f64).round() as i64;
     if q == 1i64 << 31 {
         q /= 2;

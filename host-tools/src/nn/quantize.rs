@@ -7,10 +7,13 @@
 //!   always contains 0 so that 0 is exact; after ReLU the zero point is -128);
 //! - input: the core's fixed input quantization (scale 1/32, zero point 0);
 //! - biases: int32, `round(b / (scale_in * scale_w[c]))`;
-//! - requantization: `scale_in * scale_w[c] / scale_out` as Q0.31 multiplier + shift.
+//! - requantization: `scale_in * scale_w[c] / scale_out` as Q0.31 multiplier + shift,
+//!   derived from the `f32` scales the file stores, as TFLite derives it
+//!   ([`super::multiplier::tflite_multiplier`]), so the file runs bit-exact in TFLite Micro.
 
 use super::float_model::{batch_tensor, FloatNet};
-use super::qmodel::{quantize_multiplier, HostQLayer, HostQModel};
+use super::multiplier::tflite_multiplier;
+use super::qmodel::{HostQLayer, HostQModel};
 use anyhow::{ensure, Result};
 use orbfix::nn::input::{INPUT_LEN, INPUT_UNITS_PER_SIGMA};
 use orbfix::nn::model::SPEC;
@@ -74,7 +77,8 @@ pub fn quantize(net: &FloatNet, ranges: &[(f32, f32)]) -> Result<HostQModel> {
                     .round()
                     .clamp(i32::MIN as f64, i32::MAX as f64) as i32,
             );
-            let (m, sh) = quantize_multiplier(s_in * sw / s_out);
+            // From the stored (f32) scales, not the f64 ones: what TFLite computes.
+            let (m, sh) = tflite_multiplier(s_in as f32, sw as f32, s_out as f32);
             mult.push(m);
             shift.push(sh);
         }
