@@ -549,7 +549,7 @@ pub fn run<C: StageClock>(
     }
     clock.end(Stage::NnMatch);
 
-    let response_len = fix.coarse_grid.cols * fix.coarse_grid.rows;
+    let response_len = fix.coarse_grid.cols() * fix.coarse_grid.rows();
     let mut response_hash = fnv1a_start();
     for v in scratch.loc_floats.iter().take(response_len) {
         response_hash = fnv1a(response_hash, &v.to_bits().to_le_bytes());

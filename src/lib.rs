@@ -32,6 +32,8 @@ pub mod flight_run;
 pub mod geo;
 pub mod image;
 pub mod localize;
+mod localize_messages;
 pub mod matcher;
 pub mod nn;
 pub mod reproject;
+pub mod scratch;

@@ -93,7 +93,7 @@ fn window_first_ncc_finds_an_off_grid_position() {
     assert_eq!(best, 3 * 5 + 2);
     // Ranked by the best response in their cell (dense grid and refinement samples), the
     // truth's cell wins too: (77, 131) lies in the cell of window (col 2, row 3).
-    assert_eq!(loc.fix.coarse_grid.step, 16);
+    assert_eq!(loc.fix.coarse_grid.step(), 16);
     assert!(!loc.fine_samples.is_empty());
     let cells = window_cell_scores(&loc);
     let best_cell = (0..25)
@@ -118,7 +118,7 @@ fn float_cnn_dense_equals_per_window_scores() {
     let mut out = [0f32; 9];
     let mut ops = OpCounts::default();
     let g = m.dense(&t, &w, &r, 50, &mut out, &mut ops).unwrap();
-    assert_eq!((g.cols, g.rows, ops.windows), (3, 3, 9));
+    assert_eq!((g.cols(), g.rows(), ops.windows), (3, 3, 9));
     for (i, o) in out.iter().enumerate() {
         let win = r.sub(i % 3 * 50, i / 3 * 50, 200, 200).unwrap();
         let s = m.score(&t, &w, &win, &mut OpCounts::default()).unwrap();

@@ -176,8 +176,8 @@ impl Vectors {
             .map_err(|e| anyhow::anyhow!("bad map georeference: {e:?}"))?;
         let albedo = |x: f64, y: f64| {
             let (c, r) = (
-                (x - map_geo.origin_x_m as f64) / m_per_px as f64 - 0.5,
-                (map_geo.origin_y_m as f64 - y) / m_per_px as f64 - 0.5,
+                (x - map_geo.origin_x_m() as f64) / m_per_px as f64 - 0.5,
+                (map_geo.origin_y_m() as f64 - y) / m_per_px as f64 - 0.5,
             );
             if !(c >= 0.0 && r >= 0.0 && c < (n - 1) as f64 && r < (n - 1) as f64) {
                 return 128.0;
@@ -331,9 +331,9 @@ impl Vectors {
             self.map_w,
             self.map_h,
             self.map.len(),
-            f(g.origin_x_m),
-            f(g.origin_y_m),
-            f(g.m_per_px),
+            f(g.origin_x_m()),
+            f(g.origin_y_m()),
+            f(g.m_per_px()),
             cfg.grid.n,
             f(cfg.grid.m_per_px),
             sz.loc_bytes,

@@ -71,14 +71,14 @@ pub fn run(a: Args) -> Result<()> {
             );
             set.iter()
                 .take(a.calibration / 2)
-                .flat_map(|t| [t.rover, t.positive])
+                .flat_map(|t| [*t.rover, *t.positive])
                 .collect()
         }
         None => (0..a.calibration as u64 / 2)
             .into_par_iter()
             .flat_map_iter(|i| {
                 let t = triplet(&world, &VAL_ZONE, 0xCA11_B4A7, i, 0.5, 0.15);
-                [t.rover, t.positive]
+                [*t.rover, *t.positive]
             })
             .collect(),
     };

@@ -235,9 +235,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             println!(
                 "wrote {} (satellite NW corner ({:.3}, {:.3}) m, {} m/px)",
                 out.display(),
-                geo.origin_x_m,
-                geo.origin_y_m,
-                geo.m_per_px
+                geo.origin_x_m(),
+                geo.origin_y_m(),
+                geo.m_per_px()
             );
         }
         What::Map {
@@ -268,9 +268,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             println!(
                 "wrote {} ({n}x{n} px, NW corner ({:.3}, {:.3}) m, {} m/px)",
                 out.display(),
-                geo.origin_x_m,
-                geo.origin_y_m,
-                geo.m_per_px
+                geo.origin_x_m(),
+                geo.origin_y_m(),
+                geo.m_per_px()
             );
         }
         What::Figure { common, x, y, out } => {

@@ -392,20 +392,20 @@ pub fn localize_top_down(
 pub fn window_cell_scores(loc: &Localization) -> Vec<f32> {
     let wg = loc.window_grid;
     let cg = loc.fix.coarse_grid;
-    let half = wg.step as i64 / 2;
+    let half = wg.step() as i64 / 2;
     let cell_of = |x: i64, y: i64| -> Option<usize> {
         // Cell (c, r) holds positions in [c step - half, c step + half).
-        let c = (x + half).div_euclid(wg.step as i64);
-        let r = (y + half).div_euclid(wg.step as i64);
-        (c >= 0 && r >= 0 && (c as usize) < wg.cols && (r as usize) < wg.rows)
-            .then(|| r as usize * wg.cols + c as usize)
+        let c = (x + half).div_euclid(wg.step() as i64);
+        let r = (y + half).div_euclid(wg.step() as i64);
+        (c >= 0 && r >= 0 && (c as usize) < wg.cols() && (r as usize) < wg.rows())
+            .then(|| r as usize * wg.cols() + c as usize)
     };
     let mut best = vec![f32::NEG_INFINITY; wg.len()];
     let samples = (0..cg.len())
         .map(|i| {
             (
-                (i % cg.cols * cg.step) as i64,
-                (i / cg.cols * cg.step) as i64,
+                (i % cg.cols() * cg.step()) as i64,
+                (i / cg.cols() * cg.step()) as i64,
                 loc.coarse_response[i],
             )
         })
@@ -556,7 +556,7 @@ pub fn describe_fix(loc: &Localization) -> serde_json::Value {
             "x_m": c.x_m, "y_m": c.y_m, "score": c.score, "refined": c.refined
         })).collect::<Vec<_>>(),
         "best_windows": order.iter().take(10).map(|&i| serde_json::json!({
-            "index": i, "col": i % loc.window_grid.cols, "row": i / loc.window_grid.cols,
+            "index": i, "col": i % loc.window_grid.cols(), "row": i / loc.window_grid.cols(),
             "score": loc.window_scores[i]
         })).collect::<Vec<_>>(),
         "ops": {"coarse": ops_json(&f.ops_coarse), "fine": ops_json(&f.ops_fine), "windows": ops_json(&loc.window_ops)},

@@ -188,7 +188,7 @@ fn run_query(
         .round()
         .clamp(0.0, (map.height - n) as f64) as usize;
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed.wrapping_mul(1000).wrapping_add(q.id as u64));
-    let away = 50.0 / map.geo.m_per_px as f64;
+    let away = 50.0 / map.geo.m_per_px() as f64;
     let (ncol, nrow) = loop {
         let c = rng.random_range(0..=map.width - n);
         let r = rng.random_range(0..=map.height - n);

@@ -94,14 +94,14 @@ fn refine(
             best = i;
         }
     }
-    let (bc, br) = (best % g.cols, best / g.cols);
-    let at = |c: usize, r: usize| out[r * g.cols + c];
-    let dx = if bc > 0 && bc + 1 < g.cols {
+    let (bc, br) = (best % g.cols(), best / g.cols());
+    let at = |c: usize, r: usize| out[r * g.cols() + c];
+    let dx = if bc > 0 && bc + 1 < g.cols() {
         parabola(at(bc - 1, br), at(bc, br), at(bc + 1, br))
     } else {
         0.0
     };
-    let dy = if br > 0 && br + 1 < g.rows {
+    let dy = if br > 0 && br + 1 < g.rows() {
         parabola(at(bc, br - 1), at(bc, br), at(bc, br + 1))
     } else {
         0.0
@@ -112,8 +112,8 @@ fn refine(
     let cut_s = r0 + FINE_REACH_PX > mh - n;
     let on_border = (bc == 0 && cut_w)
         || (br == 0 && cut_n)
-        || (bc + 1 == g.cols && cut_e)
-        || (br + 1 == g.rows && cut_s);
+        || (bc + 1 == g.cols() && cut_e)
+        || (br + 1 == g.rows() && cut_s);
     Ok(Refined {
         col: x0 as f64 + (bc as f64 + dx) * FINE_STEP_PX as f64,
         row: y0 as f64 + (br as f64 + dy) * FINE_STEP_PX as f64,
@@ -124,8 +124,8 @@ fn refine(
             .enumerate()
             .map(|(i, &s)| {
                 (
-                    x0 + i % g.cols * FINE_STEP_PX,
-                    y0 + i / g.cols * FINE_STEP_PX,
+                    x0 + i % g.cols() * FINE_STEP_PX,
+                    y0 + i / g.cols() * FINE_STEP_PX,
                     s,
                 )
             })
@@ -229,8 +229,8 @@ pub fn localize_windows(
     order.sort_by(|&a, &b| dense[b].total_cmp(&dense[a]));
     let pos = |i: usize| {
         (
-            (i % dgrid.cols * DENSE_STEP_PX),
-            (i / dgrid.cols * DENSE_STEP_PX),
+            (i % dgrid.cols() * DENSE_STEP_PX),
+            (i / dgrid.cols() * DENSE_STEP_PX),
         )
     };
     let mut picked: Vec<usize> = Vec::new();
