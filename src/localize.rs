@@ -283,8 +283,7 @@ pub fn downsample_mean(
     let (ow, oh) = (out.width(), out.height());
     let area = block_area(f)?;
     let ends = |o: usize, n: usize| n.checked_mul(f).and_then(|e| e.checked_add(o));
-    if !ends(x0, ow).is_some_and(|e| e <= src.width())
-        || !ends(y0, oh).is_some_and(|e| e <= src.height())
+    if ends(x0, ow).is_none_or(|e| e > src.width()) || ends(y0, oh).is_none_or(|e| e > src.height())
     {
         return Err(LocalizeError::BadConfig);
     }

@@ -89,7 +89,7 @@ pub fn prepare_input(
         return Err(NnError::TooLarge);
     }
     // No buffer has usize::MAX bytes, so an area that does not fit never matches one.
-    let area = side.checked_mul(side).unwrap_or(usize::MAX);
+    let area = side.saturating_mul(side);
     if side < INPUT_SIDE || src.len() != area || mask.is_some_and(|m| m.len() != area) {
         return Err(NnError::BufferSize);
     }

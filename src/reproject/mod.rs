@@ -59,6 +59,10 @@ pub const DEFAULT_M_PER_PX: f32 = 0.25;
 /// this leaves a wide margin. Overflowing it only drops feathering, never data.
 pub const DEFAULT_EXTRA: usize = table_len(DEFAULT_N) / 8;
 
+/// Smallest camera frame side the reprojection can sample (bilinear taps need 2 x 2
+/// pixels), pixels.
+pub const MIN_FRAME_PX: u32 = 2;
+
 /// Number of primary cells of an `n x n` grid (`n * n`; 0 on overflow).
 pub const fn table_len(n: usize) -> usize {
     match n.checked_mul(n) {

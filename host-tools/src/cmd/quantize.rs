@@ -88,7 +88,7 @@ pub fn run(a: Args) -> Result<()> {
     let bytes = q.to_bytes();
     // The core must accept what we ship.
     let qnet = SiameseNet::from_bytes(&bytes)
-        .map_err(|e| anyhow::anyhow!("the core rejects the quantized file: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("the core rejects the quantized file: {e}"))?;
     if let Some(dir) = a.out.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -118,7 +118,7 @@ pub fn run(a: Args) -> Result<()> {
         let t = std::time::Instant::now();
         for x in &calib[..reps] {
             qnet.embed(x, &mut arena, &mut e)
-                .map_err(|e| anyhow::anyhow!("int8 embedding failed: {e:?}"))?;
+                .map_err(|e| anyhow::anyhow!("int8 embedding failed: {e}"))?;
         }
         let int8_us = t.elapsed().as_secs_f64() * 1e6 / reps as f64;
         let refs: Vec<_> = calib[..reps].iter().collect();

@@ -137,7 +137,7 @@ pub fn run(args: Args) -> Result<()> {
         if !dropped {
             *f = Some(
                 ImageView::new(img.as_raw(), w, h)
-                    .map_err(|e| anyhow::anyhow!("{} view of {}: {e:?}", NAMES[k], row.id))?,
+                    .map_err(|e| anyhow::anyhow!("{} view of {}: {e}", NAMES[k], row.id))?,
             );
         }
     }
@@ -147,14 +147,14 @@ pub fn run(args: Args) -> Result<()> {
     let mut extra = vec![Tap::EMPTY; DEFAULT_EXTRA.max(cells_n / 8)];
     let t0 = Instant::now();
     let lut = Lut::build(&mut cells, &mut extra, &params, &pose, &grid, w)
-        .map_err(|e| anyhow::anyhow!("building the lookup table: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("building the lookup table: {e}"))?;
     let t_build = t0.elapsed();
     let mut out = vec![0u8; cells_n];
     let mut mask = vec![0u8; cells_n];
     let t1 = Instant::now();
     let report = lut
         .apply(&frames, &mut out, &mut mask)
-        .map_err(|e| anyhow::anyhow!("reprojecting: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("reprojecting: {e}"))?;
     let t_apply = t1.elapsed();
     let ring_cells = ((1.0 / res).round() as u32).max(1);
     let out_raw = out.clone();
@@ -192,7 +192,7 @@ pub fn run(args: Args) -> Result<()> {
     for (k, st) in report.status.iter().enumerate() {
         if *st != FrameStatus::Ok {
             println!(
-                "warning: {} view not used ({st:?}); {} cells lost to no data",
+                "warning: {} view not used ({st}); {} cells lost to no data",
                 NAMES[k], report.lost_cells
             );
         }

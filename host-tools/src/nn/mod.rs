@@ -11,3 +11,4 @@ pub mod quantize;
 pub mod realdata;
 pub mod reference;
 pub mod train;
+pub mod weights_file;
