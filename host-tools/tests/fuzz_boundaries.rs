@@ -194,7 +194,8 @@ fn reproject_never_panics_on_hostile_parameters() {
                     m_per_px: gm,
                     max_range_m: gr,
                 };
-                let bufs: Vec<Option<(Vec<u8>, usize, usize, usize)>> = frames
+                type Frame = (Vec<u8>, usize, usize, usize);
+                let bufs: Vec<Option<Frame>> = frames
                     .iter()
                     .map(|f| {
                         f.map(|(fw, fh, extra)| {
@@ -283,11 +284,10 @@ fn image_grid_and_georef_constructors_hold_their_invariants() {
                     prop_assert!(g.origin_x_m().abs() <= MAX_ORIGIN_M);
                     prop_assert!(g.origin_y_m().abs() <= MAX_ORIGIN_M);
                 }
-                Err(_) => prop_assert!(
-                    !(r.is_finite() && r > 0.0)
-                        || !(x.is_finite() && x.abs() <= MAX_ORIGIN_M)
-                        || !(y.is_finite() && y.abs() <= MAX_ORIGIN_M)
-                ),
+                Err(_) => {
+                    let ok = |v: f32| v.is_finite() && v.abs() <= MAX_ORIGIN_M;
+                    prop_assert!(!(r.is_finite() && r > 0.0 && ok(x) && ok(y)));
+                }
             }
             Ok(())
         })
