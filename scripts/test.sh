@@ -7,12 +7,28 @@ source scripts/env.sh
 
 step() { printf '\n== %s ==\n' "$*"; }
 
+step "toolchain (rust-toolchain.toml; docs/toolchain.md)"
+pin=$(sed -n 's/^channel = "\(.*\)"$/\1/p' rust-toolchain.toml)
+if ! rustc -V | grep -q "^rustc $pin "; then
+  echo "rustc is '$(rustc -V)', but rust-toolchain.toml pins $pin: install it with 'rustup toolchain install $pin' (or, where rustup cannot download and stable is $pin, 'rustup toolchain link $pin \"\$(rustc +stable --print sysroot)\"')" >&2
+  exit 1
+fi
+echo "rustc $pin, as pinned"
+
 step "format"
 cargo fmt --all -- --check
 step "clippy"
 cargo clippy --workspace --all-targets -- -D warnings
 step "tests (core and host tools)"
 cargo test --workspace
+# What ships is the release build: the same suite with optimizations (and without overflow
+# checks, as the firmware). Its release host binary is the one the stack-probe check reads
+# and the flight step runs.
+step "tests, release profile"
+cargo test --workspace --release
+step "stack probes: no large frames in the core, no probe loops in the host binary (docs/toolchain.md)"
+cargo build --release -p orbfix-host
+python3 scripts/stack-probe-check.py
 
 step "Python interop: TensorFlow Lite Micro bit-exactness, dataset loader (docs/interop.md)"
 if [ "${ORBFIX_SKIP_TFLM:-0}" = 1 ]; then
@@ -44,7 +60,7 @@ else
   # (The firmware build compiles the core for the target in full, with LTO.) No
   # --allow-panic: the firmware must link with the no-panic handler, i.e. no panic path may
   # remain in anything the fix runs; otherwise `orbfix budget` lists the call sites and fails.
-  CARGO_TARGET_DIR=$FLIGHT_TARGET_DIR cargo run -q -p orbfix-host -- budget \
+  CARGO_TARGET_DIR=$FLIGHT_TARGET_DIR cargo run --release -q -p orbfix-host -- budget \
     --toolchain-env "$FLIGHT_ENV" --json "$FLIGHT_TARGET_DIR/flight-budget.json" \
     --md "$FLIGHT_TARGET_DIR/timing-budget.md"
   grep -q '"bit_exact": true' "$FLIGHT_TARGET_DIR/flight-budget.json"

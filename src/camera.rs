@@ -36,6 +36,21 @@ pub enum CameraError {
     NonFinitePose,
 }
 
+impl core::fmt::Display for CameraError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::ZeroImageSize => "the camera image has a width or height of 0 pixels; give the cameras' real size",
+            Self::FovOutOfRange => "the camera's horizontal field of view must be a number of degrees between 0 and 180 (exclusive)",
+            Self::TiltOutOfRange => "the camera tilt must be a number of degrees between -89 and 89",
+            Self::HeightOutOfRange => "the camera height must be a number of metres above 0 and at most 100",
+            Self::AttitudeOutOfRange => "the rover's pitch and roll must be numbers of degrees between -60 and 60",
+            Self::NonFinitePose => "the rover's heading and position must be finite numbers",
+        })
+    }
+}
+
+impl core::error::Error for CameraError {}
+
 /// The rover's camera rig: one model shared by its four views.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

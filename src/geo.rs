@@ -10,20 +10,42 @@
 pub enum GeoError {
     /// The resolution is zero, negative or not finite.
     BadResolution,
-    /// The origin is not finite.
+    /// The origin is not finite or beyond [`MAX_ORIGIN_M`].
     BadOrigin,
 }
 
+impl core::fmt::Display for GeoError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::BadResolution => write!(
+                f,
+                "the map resolution must be a finite number of metres per pixel above 0"
+            ),
+            Self::BadOrigin => write!(
+                f,
+                "the map origin must be finite and within {MAX_ORIGIN_M:.0} m of 0 on each axis"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for GeoError {}
+
+/// Largest magnitude of an origin coordinate, metres (10,000 km: beyond any planetary map;
+/// far larger values lose every metre of `f32` precision, so a fix there means nothing).
+pub const MAX_ORIGIN_M: f32 = 1.0e7;
+
 /// Georeference of a north-up raster: north-west corner and resolution.
+///
+/// Fields are private: [`GeoRef::new`] (or [`GeoRef::centred`]) is the only way to build
+/// one, so the resolution is always finite and positive and the origin finite and within
+/// [`MAX_ORIGIN_M`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct GeoRef {
-    /// World `x` (east) of the raster's west edge, metres.
-    pub origin_x_m: f32,
-    /// World `y` (north) of the raster's north edge, metres.
-    pub origin_y_m: f32,
-    /// Ground size of one pixel, metres per pixel.
-    pub m_per_px: f32,
+    origin_x_m: f32,
+    origin_y_m: f32,
+    m_per_px: f32,
 }
 
 impl GeoRef {
@@ -32,7 +54,8 @@ impl GeoRef {
         if !(m_per_px.is_finite() && m_per_px > 0.0) {
             return Err(GeoError::BadResolution);
         }
-        if !(origin_x_m.is_finite() && origin_y_m.is_finite()) {
+        let ok = |v: f32| v.is_finite() && v.abs() <= MAX_ORIGIN_M;
+        if !(ok(origin_x_m) && ok(origin_y_m)) {
             return Err(GeoError::BadOrigin);
         }
         Ok(Self {
@@ -97,13 +120,17 @@ mod tests {
     #[test]
     fn round_trip_and_centre() {
         let g = GeoRef::centred(100.0, 200.0, 200, 200, 0.25).unwrap();
-        assert_eq!(g.origin_x_m, 75.0);
-        assert_eq!(g.origin_y_m, 225.0);
+        assert_eq!(g.origin_x_m(), 75.0);
+        assert_eq!(g.origin_y_m(), 225.0);
         let (c, r) = g.to_pixel(100.0, 200.0);
         assert_eq!((c, r), (100.0, 100.0));
         let (x, y) = g.to_world(0.5, 0.5);
         assert_eq!((x, y), (75.125, 224.875));
         assert_eq!(GeoRef::new(0.0, 0.0, 0.0), Err(GeoError::BadResolution));
         assert_eq!(GeoRef::new(f32::NAN, 0.0, 1.0), Err(GeoError::BadOrigin));
+        assert_eq!(GeoRef::new(1e38, 0.0, 1.0), Err(GeoError::BadOrigin));
+        assert_eq!(GeoRef::new(0.0, -1e8, 1.0), Err(GeoError::BadOrigin));
+        assert_eq!(GeoRef::new(0.0, 0.0, -0.25), Err(GeoError::BadResolution));
+        assert!(GeoRef::new(-MAX_ORIGIN_M, MAX_ORIGIN_M, 0.25).is_ok());
     }
 }

@@ -24,6 +24,24 @@ pub enum ImageError {
     },
 }
 
+impl core::fmt::Display for ImageError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::ZeroSize => write!(f, "the image has a width or height of 0 pixels; give at least 1 x 1"),
+            Self::StrideTooSmall { stride, width } => write!(
+                f,
+                "the image's row stride ({stride} bytes) is smaller than its width ({width} pixels); give a stride of at least the width"
+            ),
+            Self::BufferTooSmall { needed, got } => write!(
+                f,
+                "the image buffer has {got} bytes, its size needs {needed}; pass the whole image or a smaller size"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for ImageError {}
+
 fn check(len: usize, width: usize, height: usize, stride: usize) -> Result<(), ImageError> {
     if width == 0 || height == 0 {
         return Err(ImageError::ZeroSize);
@@ -111,7 +129,9 @@ impl<'a> ImageView<'a> {
 
     /// A rectangular sub-view (shares the buffer), or `None` if it does not fit.
     pub fn sub(&self, x: usize, y: usize, width: usize, height: usize) -> Option<ImageView<'a>> {
-        if width == 0 || height == 0 || x + width > self.width || y + height > self.height {
+        let fits = |o: usize, n: usize, limit: usize| o.checked_add(n).is_some_and(|e| e <= limit);
+        if width == 0 || height == 0 || !fits(x, width, self.width) || !fits(y, height, self.height)
+        {
             return None;
         }
         let start = y * self.stride + x;
@@ -211,5 +231,8 @@ mod tests {
         assert_eq!(s.get(0, 0), Some(5));
         assert_eq!(s.get(1, 1), Some(10));
         assert!(v.sub(3, 0, 2, 1).is_none());
+        // Offsets and sizes whose sum wraps are refused, not wrapped into range.
+        assert!(v.sub(usize::MAX, 0, 2, 1).is_none());
+        assert!(v.sub(1, 1, 1, usize::MAX).is_none());
     }
 }

@@ -229,17 +229,16 @@ pub fn downsample_weighted(
     ops: &mut OpCounts,
 ) -> Result<(), LocalizeError> {
     let (ow, oh) = (t_out.width(), t_out.height());
-    if f == 0
-        || w_out.width() != ow
+    let area = block_area(f)?;
+    if w_out.width() != ow
         || w_out.height() != oh
-        || ow * f > template.width()
-        || oh * f > template.height()
+        || ow.saturating_mul(f) > template.width()
+        || oh.saturating_mul(f) > template.height()
         || weight.width() != template.width()
         || weight.height() != template.height()
     {
         return Err(LocalizeError::BadConfig);
     }
-    let area = block_area(f)?;
     for oy in 0..oh {
         let (Some(t_row), Some(w_row)) = (t_out.row_mut(oy), w_out.row_mut(oy)) else {
             return Err(LocalizeError::BadConfig);
@@ -282,10 +281,12 @@ pub fn downsample_mean(
     ops: &mut OpCounts,
 ) -> Result<(), LocalizeError> {
     let (ow, oh) = (out.width(), out.height());
-    if f == 0 || x0 + ow * f > src.width() || y0 + oh * f > src.height() {
+    let area = block_area(f)?;
+    let ends = |o: usize, n: usize| n.checked_mul(f).and_then(|e| e.checked_add(o));
+    if ends(x0, ow).is_none_or(|e| e > src.width()) || ends(y0, oh).is_none_or(|e| e > src.height())
+    {
         return Err(LocalizeError::BadConfig);
     }
-    let area = block_area(f)?;
     for oy in 0..oh {
         let Some(dst) = out.row_mut(oy) else {
             return Err(LocalizeError::BadConfig);
@@ -309,9 +310,11 @@ pub fn downsample_mean(
     Ok(())
 }
 
-/// Pixels in an `f x f` block, non-zero (`BadConfig` for `f == 0` or an area beyond `u32`).
+/// Pixels in an `f x f` block, non-zero (`BadConfig` for `f == 0` or an area whose `u32`
+/// sums could overflow: the weighted sum reaches `f^2 * 255 * 255`, so `f <= 257`).
 fn block_area(f: usize) -> Result<NonZeroU32, LocalizeError> {
     f.checked_mul(f)
+        .filter(|&a| a <= (u32::MAX / (255 * 255)) as usize)
         .and_then(|a| u32::try_from(a).ok())
         .and_then(NonZeroU32::new)
         .ok_or(LocalizeError::BadConfig)
@@ -348,10 +351,10 @@ pub fn nearest_window(
     y_m: f32,
 ) -> usize {
     let (c, r) = geo.to_pixel(x_m, y_m);
-    let s = grid.step as f32;
-    let ci = libm::roundf((c - 0.5 * tw as f32) / s).clamp(0.0, (grid.cols - 1) as f32);
-    let ri = libm::roundf((r - 0.5 * th as f32) / s).clamp(0.0, (grid.rows - 1) as f32);
-    ri as usize * grid.cols + ci as usize
+    let s = grid.step() as f32;
+    let ci = libm::roundf((c - 0.5 * tw as f32) / s).clamp(0.0, (grid.cols() - 1) as f32);
+    let ri = libm::roundf((r - 0.5 * th as f32) / s).clamp(0.0, (grid.rows() - 1) as f32);
+    ri as usize * grid.cols() + ci as usize
 }
 
 /// Rank (0 = best) of `scores[index]` among `scores`: the number of scores strictly
@@ -450,10 +453,10 @@ pub fn localize<M: Matcher + ?Sized>(
     bytes: &mut [u8],
     floats: &mut [f32],
 ) -> Result<Fix, LocalizeError> {
-    let rel = (geo.m_per_px - top_m_per_px).abs() / geo.m_per_px;
+    let rel = (geo.m_per_px() - top_m_per_px).abs() / geo.m_per_px();
     if !(top_m_per_px.is_finite() && rel <= 1e-3) {
         return Err(LocalizeError::ResolutionMismatch {
-            map_m_per_px: geo.m_per_px,
+            map_m_per_px: geo.m_per_px(),
             top_m_per_px,
         });
     }
@@ -508,11 +511,11 @@ pub fn localize<M: Matcher + ?Sized>(
     let resp = resp
         .get(..grid.len())
         .ok_or(LocalizeError::ScratchTooSmall)?;
-    let cols = NonZeroUsize::new(grid.cols).ok_or(LocalizeError::ScratchTooSmall)?;
+    let cols = NonZeroUsize::new(grid.cols()).ok_or(LocalizeError::ScratchTooSmall)?;
     let mean = resp.iter().sum::<f32>() / resp.len() as f32;
-    let coarse_m = geo.m_per_px * l.cf as f32;
+    let coarse_m = geo.m_per_px() * l.cf as f32;
     let nms_cells = (cfg.nms_radius_m / coarse_m).max(1.0) as usize;
-    let peaks = nms_peaks(resp, grid.cols, nms_cells, MAX_CANDIDATES);
+    let peaks = nms_peaks(resp, grid.cols(), nms_cells, MAX_CANDIDATES);
     let Some(&(best_idx, s1)) = peaks.first() else {
         return Err(MatchError::NoValidPixels.into());
     };
@@ -554,9 +557,9 @@ pub fn localize<M: Matcher + ?Sized>(
                     bs = s;
                 }
             }
-            let g_cols = NonZeroUsize::new(g.cols).ok_or(LocalizeError::ScratchTooSmall)?;
+            let g_cols = NonZeroUsize::new(g.cols()).ok_or(LocalizeError::ScratchTooSmall)?;
             let (bc, br) = (bi % g_cols, bi / g_cols);
-            let at = |c: usize, r: usize| fr_s.get(r * g.cols + c).copied();
+            let at = |c: usize, r: usize| fr_s.get(r * g.cols() + c).copied();
             let dx = match (bc.checked_sub(1).and_then(|c| at(c, br)), at(bc + 1, br)) {
                 (Some(a), Some(b)) => crate::peak::parabola_offset(a, bs, b),
                 _ => 0.0,
@@ -597,7 +600,7 @@ pub fn localize<M: Matcher + ?Sized>(
         best_idx,
     ));
     let (cc, cr) = (idx % cols, idx / cols);
-    let on_border = cc == 0 || cr == 0 || cc + 1 == grid.cols || cr + 1 == grid.rows;
+    let on_border = cc == 0 || cr == 0 || cc + 1 == grid.cols() || cr + 1 == grid.rows();
     let (x_m, y_m) = rover_position(geo, col, row, tw, th);
     Ok(Fix {
         x_m,
@@ -608,7 +611,7 @@ pub fn localize<M: Matcher + ?Sized>(
         second_score: s2,
         on_border,
         candidates: cands,
-        coarse_grid: Grid { step: l.cf, ..grid },
+        coarse_grid: grid.with_step(l.cf)?,
         ops_coarse: ops_c,
         ops_fine: ops_f,
     })

@@ -90,7 +90,7 @@ fn run<M: Matcher>(
         m,
         &ImageView::new(t, TW, TW).unwrap(),
         &ImageView::new(w, TW, TW).unwrap(),
-        geo.m_per_px,
+        geo.m_per_px(),
         &ImageView::new(map, MW, MW).unwrap(),
         geo,
         prior.0,

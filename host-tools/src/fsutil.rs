@@ -8,7 +8,27 @@ use std::path::{Path, PathBuf};
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder, fsync, rename.
 /// A reader never sees a partial file; an interrupted write leaves at most a `.tmp` file.
+///
+/// Only regular files are written: a `path` that exists and is not a regular file (a device
+/// such as `/dev/full`, a folder, a pipe; symbolic links are followed) is refused, never
+/// renamed over. `-` writes to standard output instead (a closed pipe ends the program
+/// quietly, see `main`).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    if path.as_os_str() == "-" {
+        let mut out = std::io::stdout().lock();
+        out.write_all(bytes)
+            .and_then(|()| out.flush())
+            .context("cannot write to standard output")?;
+        return Ok(());
+    }
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => bail!(
+            "{} is not a regular file ({}); give the path of a file to write, or - for standard output",
+            path.display(),
+            if m.is_dir() { "a folder" } else { "a device, pipe or socket" }
+        ),
+        _ => {}
+    }
     let dir = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -126,5 +146,33 @@ mod tests {
             .unwrap()
             .into_luma16();
         assert_eq!(img.as_raw().as_slice(), &v);
+    }
+
+    #[test]
+    fn writes_regular_files_and_refuses_devices_and_folders() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("a.bin");
+        write_atomic(&f, b"one").unwrap();
+        write_atomic(&f, b"two").unwrap();
+        assert_eq!(std::fs::read(&f).unwrap(), b"two");
+        let e = write_atomic(dir.path(), b"x").unwrap_err().to_string();
+        assert!(
+            e.contains("not a regular file") && e.contains("folder"),
+            "{e}"
+        );
+        assert!(dir.path().is_dir(), "the folder is untouched");
+        if Path::new("/dev/null").exists() {
+            let e = write_atomic(Path::new("/dev/null"), b"x")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("not a regular file") && e.contains("device"),
+                "{e}"
+            );
+            let m = std::fs::metadata("/dev/null").unwrap();
+            assert!(!m.is_file(), "/dev/null is still the device");
+        }
+        // No temporary file is left behind by a refusal.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 }

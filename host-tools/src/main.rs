@@ -66,7 +66,27 @@ enum Command {
     PrepareInputs(cmd::prepare_inputs::Args),
 }
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            // The message chain on one line ("context: cause: cause"), without a backtrace
+            // even when RUST_BACKTRACE is set: every message says what to do.
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> anyhow::Result<()> {
+    // A closed standard output (`orbfix ... | head`) ends the program quietly, as for other
+    // command-line tools (exit status 141 in the shell), instead of a panic message from
+    // `println!` (Rust ignores SIGPIPE by default, so the write fails with a broken pipe).
+    // Safety: called first in `main`, before any thread exists; `SIG_DFL` is a valid handler
+    // for SIGPIPE and `signal` has no other effect.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     match cli.command {
         Command::Generate(a) => cmd::generate::run(a)?,

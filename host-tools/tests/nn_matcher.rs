@@ -35,7 +35,7 @@ fn cnn_matcher_dense_matches_score_and_rejects_bad_input() {
     let mut ops = OpCounts::default();
     let mut out = [0f32; 9];
     let g = m.dense(&t, &w, &r, 50, &mut out, &mut ops).unwrap();
-    assert_eq!((g.cols, g.rows), (3, 3));
+    assert_eq!((g.cols(), g.rows()), (3, 3));
     assert_eq!(ops.windows, 9);
     assert_eq!(ops.macs, 10 * embedding_macs() + 9 * 2048);
     assert!(out.iter().all(|s| (-1.0..=1.0).contains(s)));

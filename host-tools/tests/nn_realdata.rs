@@ -35,7 +35,7 @@ fn real_set_builds_resumes_and_rejects_truncated_files() {
         .all(|(a, b)| a.positive == b.positive));
     let mut rng = StdRng::seed_from_u64(99);
     let other = sample_triplet(&set[0], &s, &mut rng).unwrap();
-    assert_eq!(other.rover, set[0].rover);
+    assert_eq!(*other.rover, set[0].rover);
     assert_ne!(other.hard_negative, trips[0].hard_negative);
     // Bad sampling radii are refused.
     let bad = Sampling {

@@ -106,7 +106,7 @@ fn training_is_deterministic_resumable_and_quantizable() {
     let calib: Vec<_> = (0..4)
         .flat_map(|i| {
             let t = triplet(&world, &VAL_ZONE, 9, i, 0.5, 0.0);
-            [t.rover, t.positive]
+            [*t.rover, *t.positive]
         })
         .collect();
     let q = quantize(&net, &calibrate(&net, &calib).unwrap()).unwrap();

@@ -43,7 +43,7 @@ fn map_regions_and_crops_agree() {
     let sun = Sun::new(35.0, 200.0).unwrap();
     let (crop, g) =
         render::render_satellite_crop(&world, 1000.0, 1000.0, 80, 0.25, sun, &o).unwrap();
-    let big = orbfix::geo::GeoRef::new(g.origin_x_m - 10.0, g.origin_y_m + 10.0, 0.25).unwrap();
+    let big = orbfix::geo::GeoRef::new(g.origin_x_m() - 10.0, g.origin_y_m() + 10.0, 0.25).unwrap();
     let map = render::render_ortho(&world, &big, 160, 160, sun, &o).unwrap();
     let mut same = 0;
     for r in 0..80u32 {

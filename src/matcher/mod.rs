@@ -41,7 +41,43 @@ pub enum MatchError {
     },
     /// A step of zero pixels.
     ZeroStep,
+    /// Sizes so large that a count or an index would not fit the machine's integers.
+    TooLarge,
 }
+
+impl core::fmt::Display for MatchError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::MaskSizeMismatch => write!(
+                f,
+                "the top-down image and its weight mask differ in size; give both the same width and height"
+            ),
+            Self::WindowTooSmall => write!(
+                f,
+                "the map region is smaller than the top-down image (or the matcher cannot use this size); use a larger map or a smaller top-down image"
+            ),
+            Self::NoValidPixels => write!(
+                f,
+                "the weight mask has no valid pixel: the top-down image is all \"no data\"; check the camera frames and the reprojection"
+            ),
+            Self::FeaturelessTemplate => write!(
+                f,
+                "the top-down image has no contrast under its mask, there is nothing to match; check the camera exposure"
+            ),
+            Self::OutputTooSmall { needed } => write!(
+                f,
+                "the output buffer is too small: {needed} scores are needed; pass a larger buffer"
+            ),
+            Self::ZeroStep => write!(f, "a step of 0 pixels was given; use a step of at least 1"),
+            Self::TooLarge => write!(
+                f,
+                "the sizes are too large for this machine's integers; use a smaller map region or a larger step"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for MatchError {}
 
 /// Operation counts filled by matchers and the localizer, for benchmarks and the flight
 /// budget. One "MAC" is one per-pixel multiply-accumulate (or absolute-difference
@@ -70,16 +106,15 @@ impl OpCounts {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Grid {
-    /// Positions along a row (west to east).
-    pub cols: usize,
-    /// Positions along a column (north to south).
-    pub rows: usize,
-    /// Pixels between neighbouring positions.
-    pub step: usize,
+    cols: usize,
+    rows: usize,
+    step: usize,
 }
 
 impl Grid {
     /// The grid of a `tw x th` template slid over a `rw x rh` region every `step` pixels.
+    /// Every grid has at least one position, and `cols * rows` fits a `usize`
+    /// ([`MatchError::TooLarge`] otherwise).
     pub fn new(
         tw: usize,
         th: usize,
@@ -93,11 +128,11 @@ impl Grid {
         if rw < tw || rh < th || tw == 0 || th == 0 {
             return Err(MatchError::WindowTooSmall);
         }
-        Ok(Self {
-            cols: (rw - tw) / step + 1,
-            rows: (rh - th) / step + 1,
-            step,
-        })
+        let (cols, rows) = ((rw - tw) / step + 1, (rh - th) / step + 1);
+        if cols.checked_mul(rows).is_none() {
+            return Err(MatchError::TooLarge);
+        }
+        Ok(Self { cols, rows, step })
     }
 
     /// Positions along a row (west to east).
@@ -115,9 +150,17 @@ impl Grid {
         self.step
     }
 
-    /// Number of positions.
+    /// The same positions `step` pixels apart (e.g. a coarse grid in full-resolution pixels).
+    pub fn with_step(&self, step: usize) -> Result<Self, MatchError> {
+        if step == 0 {
+            return Err(MatchError::ZeroStep);
+        }
+        Ok(Self { step, ..*self })
+    }
+
+    /// Number of positions (`cols * rows`, checked by [`Grid::new`]).
     pub fn len(&self) -> usize {
-        self.cols * self.rows
+        self.cols.saturating_mul(self.rows)
     }
 
     /// Whether the grid is empty (never, for a grid built by [`Grid::new`]).
@@ -304,6 +347,12 @@ mod tests {
         assert_eq!((g.cols, g.rows, g.len()), (21, 21, 441));
         assert_eq!(Grid::new(10, 10, 5, 20, 1), Err(MatchError::WindowTooSmall));
         assert_eq!(Grid::new(1, 1, 5, 5, 0), Err(MatchError::ZeroStep));
+        assert_eq!(
+            Grid::new(1, 1, usize::MAX, usize::MAX, 1),
+            Err(MatchError::TooLarge)
+        );
+        let g = Grid::new(1, 1, usize::MAX, 1, 1).unwrap();
+        assert_eq!((g.cols(), g.rows(), g.len()), (usize::MAX, 1, usize::MAX));
     }
 
     #[test]

@@ -9,6 +9,8 @@
 
 use super::{check_inputs, Grid, MatchError, Matcher, OpCounts};
 use crate::image::ImageView;
+#[cfg(not(target_os = "none"))]
+use crate::scratch::{claim, Slot, POOL_SLOTS};
 use core::num::NonZeroUsize;
 
 /// Masked normalized cross-correlation. Score in `[-1, 1]`; a map window whose weighted
@@ -132,7 +134,7 @@ impl Ncc {
     ///   rectangle sums from column sums kept up to date row by row.
     ///
     /// MACs counted: `N + 2 |K|` per window (`N` template pixels). Returns `Ok(false)`
-    /// (nothing written) when the template, region or differing set exceeds the stack
+    /// (nothing written) when the template, region or differing set exceeds the static
     /// tables ([`FAST_MAX_PX`], [`FAST_MAX_COLS`], [`FAST_MAX_K`]).
     #[allow(clippy::too_many_arguments)]
     fn dense_fast(
@@ -164,9 +166,23 @@ impl Ncc {
         }
         // w t per pixel (row-major, tw per row) and the pixels whose weight differs
         // (window offsets, u16 as span <= 65536).
-        let mut wt = [0u16; FAST_MAX_PX];
-        let mut koff = [0u16; FAST_MAX_K];
-        let mut kdelta = [0i16; FAST_MAX_K];
+        // 6.6 KB of tables: from the static pool on a host, on the stack on bare metal
+        // (see `fast_tables`).
+        #[cfg(not(target_os = "none"))]
+        let mut claimed = claim(&FAST_TABLES).ok_or(MatchError::WindowTooSmall)?;
+        #[cfg(not(target_os = "none"))]
+        let tables: &mut FastTables = &mut claimed;
+        #[cfg(target_os = "none")]
+        let mut local = FastTables::new();
+        #[cfg(target_os = "none")]
+        let tables: &mut FastTables = &mut local;
+        let FastTables {
+            wt,
+            koff,
+            kdelta,
+            colm,
+            colmm,
+        } = tables;
         let mut k = 0usize;
         let mut wt_rows = wt.iter_mut();
         for y in 0..th {
@@ -188,6 +204,7 @@ impl Ncc {
                 }
             }
         }
+        let wt = &wt[..];
         let wt = wt.get(..n).ok_or(MatchError::WindowTooSmall)?;
         let (koff, kdelta) = match (koff.get(..k), kdelta.get(..k)) {
             (Some(o), Some(d)) => (o, d),
@@ -196,8 +213,6 @@ impl Ncc {
         let data = region.data();
         // Column sums of m and m^2 over the template's rows at the current grid row
         // (th <= FAST_MAX_PX rows: at most 1024 * 255^2 < 2^32).
-        let mut colm = [0u32; FAST_MAX_COLS];
-        let mut colmm = [0u32; FAST_MAX_COLS];
         let colm = colm.get_mut(..rw).ok_or(MatchError::WindowTooSmall)?;
         let colmm = colmm.get_mut(..rw).ok_or(MatchError::WindowTooSmall)?;
         let mut outs = out.iter_mut();
@@ -361,17 +376,50 @@ fn sums2(t: &[u8], w: &[u8], m: &[u8]) -> [[u32; 3]; 2] {
 /// Pixels per u32 partial sum in the general path (256 * 255^3 < 2^32).
 const ROW_CHUNK: usize = 256;
 
-/// Largest template (pixels) of the fast dense path; its `w t` table lives on the stack
+/// Largest template (pixels) of the fast dense path; its `w t` table lives in the static pool
 /// (`FAST_MAX_PX` x 2 bytes).
 pub const FAST_MAX_PX: usize = 1024;
 
-/// Most pixels whose weight differs from the largest, in the fast dense path (stack table
+/// Most pixels whose weight differs from the largest, in the fast dense path (static table
 /// of `FAST_MAX_K` x 4 bytes); more and the general path runs.
 pub const FAST_MAX_K: usize = 640;
 
-/// Widest region (pixels) of the fast dense path (column sums on the stack,
+/// Widest region (pixels) of the fast dense path (column sums in the static pool,
 /// `FAST_MAX_COLS` x 8 bytes); also bounds the template width to 256 pixels.
 pub const FAST_MAX_COLS: usize = 256;
+
+/// Tables of the fast dense path: `w t` per template pixel, the differing-weight pixels,
+/// and the region's column sums.
+struct FastTables {
+    wt: [u16; FAST_MAX_PX],
+    koff: [u16; FAST_MAX_K],
+    kdelta: [i16; FAST_MAX_K],
+    colm: [u32; FAST_MAX_COLS],
+    colmm: [u32; FAST_MAX_COLS],
+}
+
+impl FastTables {
+    const fn new() -> Self {
+        Self {
+            wt: [0; FAST_MAX_PX],
+            koff: [0; FAST_MAX_K],
+            kdelta: [0; FAST_MAX_K],
+            colm: [0; FAST_MAX_COLS],
+            colmm: [0; FAST_MAX_COLS],
+        }
+    }
+}
+
+// Where the tables live. On a host (x86_64 and the like: threads, and stack probes for
+// frames of 4 KiB and more, see docs/toolchain.md) in a static pool. On bare metal (the
+// flight firmware: one thread, no probes) on the stack of `dense_fast`, where they share the
+// 20 KiB stack region with the other stages (the measured peak is the CNN stage's, not this
+// one), instead of adding 6.6 KB of statics to a RAM region that has 1.7 KB left
+// (docs/flight-target.md). A caller-provided table for the flight path is the lead's
+// follow-up in the `orbfix::fix` pipeline.
+#[cfg(not(target_os = "none"))]
+static FAST_TABLES: [Slot<FastTables>; POOL_SLOTS] =
+    [const { Slot::new(FastTables::new()) }; POOL_SLOTS];
 
 /// Adds (`add`) or subtracts one region row's `m` and `m^2` into the column sums.
 fn add_row(

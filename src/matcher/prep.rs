@@ -17,6 +17,10 @@ pub const fn highpass_buffer_len(width: usize) -> usize {
 
 /// Masked high-pass of `src` into `out` with box radius `radius` pixels (see the module
 /// doc). `mask`: `None` = all valid. `scratch`: at least [`highpass_buffer_len`] elements.
+///
+/// A radius beyond the image is the whole image (the box is clipped at the edges anyway).
+/// The running sums are `u32`: a box of more than `u32::MAX / 255` pixels (about 4104 x 4104)
+/// is [`MatchError::TooLarge`].
 pub fn highpass(
     src: &ImageView<'_>,
     mask: Option<&ImageView<'_>>,
@@ -37,6 +41,14 @@ pub fn highpass(
         return Err(MatchError::OutputTooSmall {
             needed: highpass_buffer_len(w),
         });
+    }
+    // A box wider than the image is the whole image: clamping keeps `y + radius` from
+    // wrapping and changes no output.
+    let radius = radius.min(w.max(h));
+    let side = radius.saturating_mul(2).saturating_add(1);
+    let box_px = side.min(w).saturating_mul(side.min(h));
+    if box_px > (u32::MAX / 255) as usize {
+        return Err(MatchError::TooLarge);
     }
     if mask.is_none() {
         return highpass_unmasked(src, radius, out, scratch);
@@ -236,6 +248,19 @@ mod tests {
         let mut o = ImageViewMut::new(&mut out, 20, 20).unwrap();
         highpass(&src, Some(&mv), 3, &mut o, &mut scratch).unwrap();
         assert!(highpass(&src, None, 2, &mut o, &mut scratch[..10]).is_err());
+        highpass(&src, Some(&mv), 3, &mut o, &mut scratch).unwrap();
+        // A huge radius is the whole image (no wrap): every valid pixel is v - global mean.
+        let mut whole = [0u8; 400];
+        let mut ow = ImageViewMut::new(&mut whole, 20, 20).unwrap();
+        highpass(&src, None, usize::MAX, &mut ow, &mut scratch).unwrap();
+        let mut whole19 = [0u8; 400];
+        let mut o19 = ImageViewMut::new(&mut whole19, 20, 20).unwrap();
+        highpass(&src, None, 19, &mut o19, &mut scratch).unwrap();
+        assert_eq!(whole, whole19);
+        let total: u32 = img.iter().map(|&v| v as u32).sum();
+        let mean = ((total + 200) / 400) as i32;
+        assert_eq!(whole[7], (128 + img[7] as i32 - mean).clamp(0, 255) as u8);
+        let mut o = ImageViewMut::new(&mut out, 20, 20).unwrap();
         highpass(&src, Some(&mv), 3, &mut o, &mut scratch).unwrap();
         for y in 0..20i32 {
             for x in 0..20i32 {

@@ -16,6 +16,10 @@ pub const INPUT_LEN: usize = INPUT_SIDE * INPUT_SIDE;
 /// Quantized units per standard deviation: the input scale is `1 / 32`, so int8 covers
 /// about +-4 sigma.
 pub const INPUT_UNITS_PER_SIGMA: i64 = 32;
+/// Largest source side, pixels: a cell then has at most 1024 x 1024 pixels, so its `u32`
+/// sum (`<= 1024^2 * 255`, times 16 for the Q4 mean) cannot overflow. Larger sources are
+/// [`NnError::TooLarge`].
+pub const MAX_SOURCE_SIDE: usize = 64 * 1024;
 /// Fewest valid cells (of [`INPUT_LEN`]) accepted: one eighth of the window.
 pub const MIN_VALID_CELLS: usize = INPUT_LEN / 8;
 
@@ -81,8 +85,12 @@ pub fn prepare_input(
     side: usize,
     out: &mut [i8; INPUT_LEN],
 ) -> Result<(), NnError> {
-    if side < INPUT_SIDE || src.len() != side * side || mask.is_some_and(|m| m.len() != side * side)
-    {
+    if side > MAX_SOURCE_SIDE {
+        return Err(NnError::TooLarge);
+    }
+    // No buffer has usize::MAX bytes, so an area that does not fit never matches one.
+    let area = side.saturating_mul(side);
+    if side < INPUT_SIDE || src.len() != area || mask.is_some_and(|m| m.len() != area) {
         return Err(NnError::BufferSize);
     }
     let src = ImageView::new(src, side, side).map_err(|_| NnError::BufferSize)?;
@@ -96,7 +104,8 @@ pub fn prepare_input(
 /// Builds the network input from a square image view (side >= [`INPUT_SIDE`] pixels,
 /// covering 50 m x 50 m) and an optional mask view of the same size (non-zero = valid).
 ///
-/// Errors: non-square, too small or mismatched views ([`NnError::BufferSize`]), fewer than
+/// Errors: non-square, too small or mismatched views ([`NnError::BufferSize`]), a side above
+/// [`MAX_SOURCE_SIDE`] ([`NnError::TooLarge`]), fewer than
 /// [`MIN_VALID_CELLS`] valid cells ([`NnError::TooFewValid`]), or no contrast among them
 /// ([`NnError::FlatInput`], e.g. a black or saturated frame).
 pub fn prepare_input_view(
@@ -105,6 +114,9 @@ pub fn prepare_input_view(
     out: &mut [i8; INPUT_LEN],
 ) -> Result<(), NnError> {
     let side = src.width();
+    if side > MAX_SOURCE_SIDE {
+        return Err(NnError::TooLarge);
+    }
     if side < INPUT_SIDE
         || src.height() != side
         || mask.is_some_and(|m| m.width() != side || m.height() != side)

@@ -6,8 +6,10 @@
 //! of the embeddings in `[-1, 1]`. A flat or fully masked **window** scores -1 (it cannot be
 //! the match); a flat or fully masked **template** is an error.
 //!
-//! Memory: the network's [`Arena`] (33,920 bytes) lives on the stack of each call; nothing
-//! is shared, so the matcher is `Send + Sync`. [`Matcher::dense`] embeds the template once
+//! Memory: each call claims one [`CnnScratch`] (the network's [`Arena`], the prepared input
+//! and two embeddings: [`CNN_SCRATCH_BYTES`]) from a static pool
+//! ([`crate::scratch`], [`crate::scratch::POOL_SLOTS`] slots), so nothing large is on the
+//! stack and the matcher is `Send + Sync`. [`Matcher::dense`] embeds the template once
 //! and every window once. In flight, window embeddings depend only on the map and should be
 //! precomputed once per map (see `docs/matcher.md`).
 
@@ -17,6 +19,40 @@ use super::weights::WeightsError;
 use super::NnError;
 use crate::image::ImageView;
 use crate::matcher::{Grid, MatchError, Matcher, OpCounts};
+use crate::scratch::{claim, Slot, POOL_SLOTS};
+
+/// Working memory of one [`CnnMatcher`] call: the network's arena, the prepared input and
+/// the template's and a window's embeddings.
+pub struct CnnScratch {
+    arena: Arena,
+    input: [i8; INPUT_LEN],
+    template: [i8; EMBED_LEN],
+    window: [i8; EMBED_LEN],
+}
+
+impl CnnScratch {
+    /// Zeroed scratch (usable in a `static` initializer).
+    pub const fn new() -> Self {
+        Self {
+            arena: Arena::new(),
+            input: [0; INPUT_LEN],
+            template: [0; EMBED_LEN],
+            window: [0; EMBED_LEN],
+        }
+    }
+}
+
+impl Default for CnnScratch {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Bytes of one [`CnnScratch`] (the static pool holds [`POOL_SLOTS`] of them).
+pub const CNN_SCRATCH_BYTES: usize = core::mem::size_of::<CnnScratch>();
+
+static SCRATCH: [Slot<CnnScratch>; POOL_SLOTS] =
+    [const { Slot::new(CnnScratch::new()) }; POOL_SLOTS];
 
 /// The int8 siamese CNN matcher.
 #[derive(Clone, Copy, Debug)]
@@ -31,6 +67,7 @@ fn to_match_error(e: NnError) -> MatchError {
         NnError::BadGeometry | NnError::BufferSize | NnError::ScratchTooSmall => {
             MatchError::WindowTooSmall
         }
+        NnError::TooLarge => MatchError::TooLarge,
     }
 }
 
@@ -40,34 +77,39 @@ impl<'a> CnnMatcher<'a> {
         Self { net }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn embed(
         &self,
         img: &ImageView<'_>,
         mask: Option<&ImageView<'_>>,
+        input: &mut [i8; INPUT_LEN],
         arena: &mut Arena,
         out: &mut [i8; EMBED_LEN],
         ops: &mut OpCounts,
     ) -> Result<(), NnError> {
-        let mut input = [0i8; INPUT_LEN];
-        prepare_input_view(img, mask, &mut input)?;
-        self.net.embed(&input, arena, out)?;
+        prepare_input_view(img, mask, input)?;
+        self.net.embed(input, arena, out)?;
         ops.macs += embedding_macs();
         Ok(())
     }
 
     fn window_score(
         &self,
-        t: &[i8; EMBED_LEN],
         window: &ImageView<'_>,
-        arena: &mut Arena,
+        s: &mut CnnScratch,
         ops: &mut OpCounts,
     ) -> Result<f32, MatchError> {
-        let mut e = [0i8; EMBED_LEN];
         ops.windows += 1;
-        match self.embed(window, None, arena, &mut e, ops) {
+        let CnnScratch {
+            arena,
+            input,
+            template,
+            window: e,
+        } = s;
+        match self.embed(window, None, input, arena, e, ops) {
             Ok(()) => {
                 ops.macs += EMBED_LEN as u64;
-                Ok(cosine_q15(t, &e, self.net.embedding_zero_point()) as f32 / 32768.0)
+                Ok(cosine_q15(template, e, self.net.embedding_zero_point()) as f32 / 32768.0)
             }
             Err(NnError::FlatInput | NnError::TooFewValid) => Ok(-1.0),
             Err(e) => Err(to_match_error(e)),
@@ -120,16 +162,21 @@ impl Matcher for CnnMatcher<'_> {
         let out = out
             .get_mut(..grid.len())
             .ok_or(MatchError::OutputTooSmall { needed: grid.len() })?;
-        let mut arena = Arena::new();
-        let mut t = [0i8; EMBED_LEN];
-        self.embed(template, Some(weight), &mut arena, &mut t, ops)
+        let mut s = claim(&SCRATCH).ok_or(MatchError::WindowTooSmall)?;
+        let CnnScratch {
+            arena,
+            input,
+            template: t,
+            ..
+        } = &mut *s;
+        self.embed(template, Some(weight), input, arena, t, ops)
             .map_err(to_match_error)?;
         for (i, o) in out.iter_mut().enumerate() {
-            let (c, r) = (i % grid.cols, i / grid.cols);
+            let (c, r) = (i % grid.cols(), i / grid.cols());
             let win = region
                 .sub(c * step, r * step, w, h)
                 .ok_or(MatchError::WindowTooSmall)?;
-            *o = self.window_score(&t, &win, &mut arena, ops)?;
+            *o = self.window_score(&win, &mut s, ops)?;
         }
         Ok(grid)
     }

@@ -39,4 +39,22 @@ pub enum NnError {
     TooFewValid,
     /// The valid pixels have (almost) no contrast: black, saturated or flat frame.
     FlatInput,
+    /// The input is larger than the network input code can sum without overflow
+    /// ([`input::MAX_SOURCE_SIDE`]).
+    TooLarge,
 }
+
+impl core::fmt::Display for NnError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::BadGeometry => "the layer's kernel, stride, padding and tensor sizes do not agree; the weights do not fit this network",
+            Self::BufferSize => "a tensor or parameter buffer is shorter than its shape needs, or the input image is not square and at least 64 pixels a side",
+            Self::ScratchTooSmall => "the scratch buffer is smaller than the kernel needs; size it with the kernel's buffer-size function",
+            Self::TooFewValid => "too few valid pixels in the window to match (less than one eighth); check the mask",
+            Self::FlatInput => "the valid pixels have no contrast (black, saturated or flat frame); check the camera exposure",
+            Self::TooLarge => "the input image is larger than 65536 pixels a side; downsample it first",
+        })
+    }
+}
+
+impl core::error::Error for NnError {}

@@ -17,7 +17,9 @@
 use super::conv::{conv2d_s8, conv2d_s8_buffer_size, ConvParams, Dims};
 use super::dense::{dense_s8, DenseParams};
 use super::input::{isqrt_u64, INPUT_LEN, INPUT_SIDE};
-use super::weights::{file_bytes, parse, LayerKind, LayerSpec, QNetwork, WeightsError};
+use super::weights::{
+    file_bytes, parse, LayerKind, LayerSpec, QNetwork, WeightsError, MAX_CHANNELS,
+};
 use super::NnError;
 
 const fn conv(in_side: usize, in_c: usize, out_c: usize, stride: usize) -> LayerSpec {
@@ -167,7 +169,7 @@ impl<'a> SiameseNet<'a> {
 
     /// Zero point of the embedding's int8 values.
     pub fn embedding_zero_point(&self) -> i32 {
-        self.net.layers[LAYERS - 1].output_zp
+        self.net.layers()[LAYERS - 1].output_zp()
     }
 
     /// Embeds one prepared input ([`super::input::prepare_input`]) into `out`
@@ -183,8 +185,12 @@ impl<'a> SiameseNet<'a> {
         }
         let Arena { a, b, scratch } = arena;
         let (mut src, mut dst): (&mut [i8], &mut [i8]) = (&mut a[..], &mut b[..]);
-        for (i, l) in self.net.layers.iter().enumerate() {
-            let s = &l.spec;
+        // Per-channel parameters of the current layer, decoded from the file (768 bytes).
+        let mut bias = [0i32; MAX_CHANNELS];
+        let mut multiplier = [0i32; MAX_CHANNELS];
+        let mut shift = [0i32; MAX_CHANNELS];
+        for (i, l) in self.net.layers().iter().enumerate() {
+            let s = l.spec();
             let in_dims = Dims {
                 h: s.in_h,
                 w: s.in_w,
@@ -197,14 +203,14 @@ impl<'a> SiameseNet<'a> {
             };
             let last = i + 1 == LAYERS;
             let target: &mut [i8] = if last { &mut out[..] } else { &mut dst[..] };
-            let oc = s.out_c;
+            let oc = l.channel_params(&mut bias, &mut multiplier, &mut shift);
             // Sizes were validated against SPEC when the weights were parsed; a mismatch
             // here is a typed error, never a panic.
             let (Some(input), Some(bias), Some(multiplier), Some(shift)) = (
                 src.get(..in_dims.len()),
-                l.bias.get(..oc),
-                l.multiplier.get(..oc),
-                l.shift.get(..oc),
+                bias.get(..oc),
+                multiplier.get(..oc),
+                shift.get(..oc),
             ) else {
                 return Err(NnError::BufferSize);
             };
@@ -214,14 +220,14 @@ impl<'a> SiameseNet<'a> {
                         kernel: s.kernel,
                         stride: s.stride,
                         pad: s.pad,
-                        input_offset: -l.input_zp,
-                        output_offset: l.output_zp,
-                        act_min: l.act_min,
-                        act_max: l.act_max,
+                        input_offset: -l.input_zp(),
+                        output_offset: l.output_zp(),
+                        act_min: l.act_min(),
+                        act_max: l.act_max(),
                     },
                     input,
                     in_dims,
-                    l.weights,
+                    l.weights(),
                     bias,
                     multiplier,
                     shift,
@@ -231,16 +237,16 @@ impl<'a> SiameseNet<'a> {
                 )?,
                 LayerKind::DensePerPixel => dense_s8(
                     &DenseParams {
-                        input_offset: -l.input_zp,
-                        output_offset: l.output_zp,
-                        act_min: l.act_min,
-                        act_max: l.act_max,
+                        input_offset: -l.input_zp(),
+                        output_offset: l.output_zp(),
+                        act_min: l.act_min(),
+                        act_max: l.act_max(),
                     },
                     in_dims.h * in_dims.w,
                     s.in_c,
                     oc,
                     input,
-                    l.weights,
+                    l.weights(),
                     bias,
                     multiplier,
                     shift,

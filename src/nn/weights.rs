@@ -12,9 +12,11 @@
 //! trailer  u32 CRC-32 (IEEE) of every preceding byte
 //! ```
 //!
-//! The parser never trusts the file: it checks the length, magic, version, CRC, every shape
-//! against the network compiled into the core, and every quantization parameter's range, and
-//! reports the first problem as a typed [`WeightsError`].
+//! The parser never trusts the file: it checks the magic and the CRC first (so damage reads
+//! as corruption, not as a strange structure), then the version, every shape against the
+//! network compiled into the core, and every quantization parameter's range, including a
+//! bound that keeps every int32 accumulator from overflowing; it reports the first problem
+//! as a typed [`WeightsError`].
 
 use super::conv::conv_out_size;
 use super::requant::{SHIFT_MAX, SHIFT_MIN};
@@ -75,7 +77,60 @@ pub enum WeightsError {
         /// Zero-based layer index.
         layer: usize,
     },
+    /// A bias (with the shift that follows it) could make an int32 accumulator of layer
+    /// `layer`, output channel `channel`, overflow for some input.
+    AccumulatorOverflow {
+        /// Zero-based layer index.
+        layer: usize,
+        /// Zero-based output channel.
+        channel: usize,
+    },
 }
+
+impl core::fmt::Display for WeightsError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::Truncated { needed, got } => write!(
+                f,
+                "the weight file is truncated: it has {got} bytes, the network needs {needed}; copy or export it again"
+            ),
+            Self::TrailingBytes { extra } => write!(
+                f,
+                "the weight file has {extra} unexpected bytes after its layers; it was not written by `orbfix quantize` for this network"
+            ),
+            Self::BadMagic => write!(
+                f,
+                "this is not an orbfix weight file (it does not start with OFW1); pass a .ofw file written by `orbfix quantize`"
+            ),
+            Self::UnsupportedVersion(v) => write!(
+                f,
+                "the weight file has format version {v}, this build reads version {VERSION}; export it again with this version's `orbfix quantize`"
+            ),
+            Self::CrcMismatch { stored, computed } => write!(
+                f,
+                "the weight file is corrupt: its CRC-32 is {computed:#010x} but {stored:#010x} is stored; restore it from a good copy"
+            ),
+            Self::LayerCount { expected, found } => write!(
+                f,
+                "the weight file has {found} layers, this build's network has {expected}; it is for another network"
+            ),
+            Self::ShapeMismatch { layer } => write!(
+                f,
+                "layer {layer} of the weight file has another kind or shape than this build's network; it is for another network"
+            ),
+            Self::BadQuantization { layer } => write!(
+                f,
+                "layer {layer} of the weight file has an out-of-range quantization parameter (zero point, activation range, multiplier, shift or a -128 weight); quantize the model again"
+            ),
+            Self::AccumulatorOverflow { layer, channel } => write!(
+                f,
+                "layer {layer}, channel {channel} of the weight file has a bias too large for 32-bit accumulators (some input would overflow); quantize the model again"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for WeightsError {}
 
 /// CRC-32 (IEEE 802.3, reflected polynomial 0xEDB88320), the checksum of zip and PNG.
 pub fn crc32(data: &[u8]) -> u32 {
@@ -184,32 +239,37 @@ pub const fn file_bytes(spec: &[LayerSpec]) -> usize {
     n
 }
 
-/// One validated, quantized layer; its weights borrow the file.
+/// One validated, quantized layer; its parameters and weights borrow the file.
+///
+/// Fields are private: a `QLayer` exists only as part of a [`QNetwork`] returned by
+/// [`parse`], so every value below passed the range checks of `docs/weights-format.md`
+/// (among them the accumulator bound: no int32 accumulator of this layer can overflow for
+/// any input).
 #[derive(Clone, Copy, Debug)]
 pub struct QLayer<'a> {
-    /// Shape (equal to the compiled network's).
-    pub spec: LayerSpec,
-    /// Input zero point.
-    pub input_zp: i32,
-    /// Output zero point.
-    pub output_zp: i32,
-    /// Lowest output value (fused activation).
-    pub act_min: i32,
-    /// Highest output value.
-    pub act_max: i32,
-    /// Output scale (real value per unit), for information.
-    pub output_scale: f32,
-    /// Int32 bias per output channel.
-    pub bias: [i32; MAX_CHANNELS],
-    /// Q0.31 multiplier per output channel.
-    pub multiplier: [i32; MAX_CHANNELS],
-    /// Shift per output channel (positive: left).
-    pub shift: [i32; MAX_CHANNELS],
-    /// OHWI int8 weights.
-    pub weights: &'a [i8],
+    spec: LayerSpec,
+    input_zp: i32,
+    output_zp: i32,
+    act_min: i32,
+    act_max: i32,
+    output_scale: f32,
+    /// `out_c` little-endian i32 biases.
+    bias: &'a [u8],
+    /// `out_c` little-endian i32 Q0.31 multipliers.
+    multiplier: &'a [u8],
+    /// `out_c` i8 shifts.
+    shift: &'a [u8],
+    weights: &'a [i8],
 }
 
-impl QLayer<'_> {
+fn le_i32(s: &[u8], i: usize) -> Option<i32> {
+    match *s.get(i.checked_mul(4)?..i.checked_mul(4)?.checked_add(4)?)? {
+        [a, b, c, d] => Some(i32::from_le_bytes([a, b, c, d])),
+        _ => None,
+    }
+}
+
+impl<'a> QLayer<'a> {
     const EMPTY: QLayer<'static> = QLayer {
         spec: LayerSpec {
             kind: LayerKind::Conv,
@@ -227,22 +287,100 @@ impl QLayer<'_> {
         act_min: 0,
         act_max: 0,
         output_scale: 0.0,
-        bias: [0; MAX_CHANNELS],
-        multiplier: [0; MAX_CHANNELS],
-        shift: [0; MAX_CHANNELS],
+        bias: &[],
+        multiplier: &[],
+        shift: &[],
         weights: &[],
     };
+
+    /// Shape (equal to the compiled network's).
+    pub fn spec(&self) -> &LayerSpec {
+        &self.spec
+    }
+    /// Input zero point.
+    pub fn input_zp(&self) -> i32 {
+        self.input_zp
+    }
+    /// Output zero point.
+    pub fn output_zp(&self) -> i32 {
+        self.output_zp
+    }
+    /// Lowest output value (fused activation).
+    pub fn act_min(&self) -> i32 {
+        self.act_min
+    }
+    /// Highest output value.
+    pub fn act_max(&self) -> i32 {
+        self.act_max
+    }
+    /// Output scale (real value per unit), for information.
+    pub fn output_scale(&self) -> f32 {
+        self.output_scale
+    }
+    /// OHWI int8 weights (`-127..=127`).
+    pub fn weights(&self) -> &'a [i8] {
+        self.weights
+    }
+    /// Int32 bias of output channel `c` (units of input scale x weight scale), `None` past
+    /// the last channel.
+    pub fn bias(&self, c: usize) -> Option<i32> {
+        le_i32(self.bias, c)
+    }
+    /// Q0.31 requantization multiplier of output channel `c`.
+    pub fn multiplier(&self, c: usize) -> Option<i32> {
+        le_i32(self.multiplier, c)
+    }
+    /// Requantization shift of output channel `c` (positive: left).
+    pub fn shift(&self, c: usize) -> Option<i32> {
+        self.shift.get(c).map(|&s| s as i8 as i32)
+    }
+    /// Decodes every channel's bias, multiplier and shift into the caller's arrays (the
+    /// layout the kernels take); returns the channel count (`out_c <= MAX_CHANNELS`).
+    pub fn channel_params(
+        &self,
+        bias: &mut [i32; MAX_CHANNELS],
+        multiplier: &mut [i32; MAX_CHANNELS],
+        shift: &mut [i32; MAX_CHANNELS],
+    ) -> usize {
+        let oc = self.spec.out_c.min(MAX_CHANNELS);
+        for c in 0..oc {
+            if let (Some(b), Some(m), Some(s), Some(db), Some(dm), Some(ds)) = (
+                self.bias(c),
+                self.multiplier(c),
+                self.shift(c),
+                bias.get_mut(c),
+                multiplier.get_mut(c),
+                shift.get_mut(c),
+            ) {
+                (*db, *dm, *ds) = (b, m, s);
+            }
+        }
+        oc
+    }
 }
 
-/// A validated weight file for a network of `N` layers.
+/// A validated weight file for a network of `N` layers (about 100 bytes a layer: the
+/// parameters borrow the file).
 #[derive(Clone, Copy, Debug)]
 pub struct QNetwork<'a, const N: usize> {
+    input_scale: f32,
+    input_zp: i32,
+    layers: [QLayer<'a>; N],
+}
+
+impl<'a, const N: usize> QNetwork<'a, N> {
     /// Scale of the int8 input (real value per unit).
-    pub input_scale: f32,
+    pub fn input_scale(&self) -> f32 {
+        self.input_scale
+    }
     /// Zero point of the int8 input.
-    pub input_zp: i32,
+    pub fn input_zp(&self) -> i32 {
+        self.input_zp
+    }
     /// The layers, in order.
-    pub layers: [QLayer<'a>; N],
+    pub fn layers(&self) -> &[QLayer<'a>; N] {
+        &self.layers
+    }
 }
 
 struct Reader<'a> {
@@ -296,33 +434,80 @@ fn as_i8(s: &[u8]) -> &[i8] {
     unsafe { core::slice::from_raw_parts(s.as_ptr().cast::<i8>(), s.len()) }
 }
 
+/// Largest `|x - zp| * |w|` term of an accumulator: int8 activations and zero points
+/// (`-128..=127`) differ by at most 255, weights are `-127..=127`.
+pub const MAX_TERM: i64 = 255 * 127;
+
+/// Largest magnitude an accumulator of a layer with `field` (`kernel^2 * in_c`) terms reaches
+/// before the bias: `field * 255 * 127`.
+pub const fn accumulator_terms_bound(field: usize) -> i64 {
+    field as i64 * MAX_TERM
+}
+
 /// Parses and validates a weight file against the compiled network `spec`.
+///
+/// Order (each step trusts only what the previous ones checked): size and magic; the CRC-32
+/// of the whole content (a short file whose CRC fails is [`WeightsError::Truncated`], any
+/// other damage [`WeightsError::CrcMismatch`]); version; layer count; every record's
+/// shape; every quantization parameter's range, including the accumulator bound
+/// (`docs/weights-format.md`).
 pub fn parse<'a, const N: usize>(
     bytes: &'a [u8],
     spec: &[LayerSpec; N],
 ) -> Result<QNetwork<'a, N>, WeightsError> {
-    if bytes.len() < HEADER_BYTES + 4 {
-        if bytes.get(..4).is_some_and(|m| m != MAGIC) {
-            return Err(WeightsError::BadMagic);
-        }
-        return Err(WeightsError::Truncated {
-            needed: HEADER_BYTES + 4,
-            got: bytes.len(),
-        });
-    }
-    let mut r = Reader {
-        b: bytes,
-        pos: 0,
-        end: bytes.len() - 4,
-    };
-    if r.array::<4>()? != MAGIC {
+    if bytes.get(..4).is_some_and(|m| m != MAGIC) {
         return Err(WeightsError::BadMagic);
     }
+    let expected_len = file_bytes(spec);
+    let Some(content_len) = bytes.len().checked_sub(4).filter(|&n| n >= HEADER_BYTES) else {
+        return Err(WeightsError::Truncated {
+            needed: expected_len.max(HEADER_BYTES + 4),
+            got: bytes.len(),
+        });
+    };
+    let (content, trailer) =
+        bytes
+            .split_at_checked(content_len)
+            .ok_or(WeightsError::Truncated {
+                needed: expected_len,
+                got: bytes.len(),
+            })?;
+    let stored = match *trailer {
+        [a, b, c, d] => u32::from_le_bytes([a, b, c, d]),
+        _ => {
+            return Err(WeightsError::Truncated {
+                needed: expected_len,
+                got: bytes.len(),
+            })
+        }
+    };
+    let computed = crc32(content);
+    if stored != computed {
+        if bytes.len() < expected_len {
+            return Err(WeightsError::Truncated {
+                needed: expected_len,
+                got: bytes.len(),
+            });
+        }
+        return Err(WeightsError::CrcMismatch { stored, computed });
+    }
+    // The content is what was written: now its structure.
+    let mut r = Reader {
+        b: bytes,
+        pos: 4,
+        end: content_len,
+    };
     let version = r.u16()?;
     if version != VERSION {
         return Err(WeightsError::UnsupportedVersion(version));
     }
     let count = r.u16()? as usize;
+    if count != N {
+        return Err(WeightsError::LayerCount {
+            expected: N,
+            found: count,
+        });
+    }
     let input_scale = r.f32()?;
     let input_zp = r.i32()?;
     let mut net = QNetwork {
@@ -330,17 +515,7 @@ pub fn parse<'a, const N: usize>(
         input_zp,
         layers: [QLayer::EMPTY; N],
     };
-    // Structure first (lengths), so that a short file reads as truncated; layers beyond the
-    // compiled network's are walked for their length only.
-    let mut shape_error: Option<WeightsError> = None;
-    if count != N {
-        shape_error = Some(WeightsError::LayerCount {
-            expected: N,
-            found: count,
-        });
-    }
-    #[allow(clippy::needless_range_loop)] // `count` may exceed `N`: walk every record.
-    for i in 0..count {
+    for (i, (l, want)) in net.layers.iter_mut().zip(spec).enumerate() {
         let kind = r.u8()?;
         let kernel = r.u8()? as usize;
         let stride = r.u8()? as usize;
@@ -351,26 +526,10 @@ pub fn parse<'a, const N: usize>(
         let out_c = r.u16()? as usize;
         let in_h = r.u16()? as usize;
         let in_w = r.u16()? as usize;
-        let l_input_zp = r.i32()?;
-        let output_zp = r.i32()?;
-        let act_min = r.i32()?;
-        let act_max = r.i32()?;
-        let output_scale = r.f32()?;
-        let _weight_scales = r.take(out_c * 4)?;
-        let bias = r.take(out_c * 4)?;
-        let mult = r.take(out_c * 4)?;
-        let shift = r.take(out_c)?;
-        let weights = r.take(out_c * kernel * kernel * in_c)?;
-        if i >= N {
-            continue;
-        }
         let kind = match kind {
             1 => LayerKind::Conv,
             2 => LayerKind::DensePerPixel,
-            _ => {
-                shape_error.get_or_insert(WeightsError::ShapeMismatch { layer: i });
-                continue;
-            }
+            _ => return Err(WeightsError::ShapeMismatch { layer: i }),
         };
         let file_spec = LayerSpec {
             kind,
@@ -383,63 +542,26 @@ pub fn parse<'a, const N: usize>(
             in_c,
             out_c,
         };
-        if file_spec != spec[i] || out_c > MAX_CHANNELS {
-            shape_error.get_or_insert(WeightsError::ShapeMismatch { layer: i });
-            continue;
+        if file_spec != *want || out_c > MAX_CHANNELS {
+            return Err(WeightsError::ShapeMismatch { layer: i });
         }
-        let Some(l) = net.layers.get_mut(i) else {
-            continue;
-        };
         l.spec = file_spec;
-        l.input_zp = l_input_zp;
-        l.output_zp = output_zp;
-        l.act_min = act_min;
-        l.act_max = act_max;
-        l.output_scale = output_scale;
-        // out_c <= MAX_CHANNELS (checked above); `take` gave exactly out_c entries each.
-        let le = |s: &[u8]| match *s {
-            [a, b, c, d] => i32::from_le_bytes([a, b, c, d]),
-            _ => 0,
-        };
-        for (((b, m), sh), ((bs, ms), &ss)) in l
-            .bias
-            .iter_mut()
-            .zip(l.multiplier.iter_mut())
-            .zip(l.shift.iter_mut())
-            .zip(bias.chunks_exact(4).zip(mult.chunks_exact(4)).zip(shift))
-        {
-            *b = le(bs);
-            *m = le(ms);
-            *sh = ss as i8 as i32;
-        }
-        l.weights = as_i8(weights);
+        l.input_zp = r.i32()?;
+        l.output_zp = r.i32()?;
+        l.act_min = r.i32()?;
+        l.act_max = r.i32()?;
+        l.output_scale = r.f32()?;
+        // The shape equals the compiled one (small numbers), so these products cannot wrap.
+        let _weight_scales = r.take(out_c * 4)?;
+        l.bias = r.take(out_c * 4)?;
+        l.multiplier = r.take(out_c * 4)?;
+        l.shift = r.take(out_c)?;
+        l.weights = as_i8(r.take(file_spec.weight_count())?);
     }
     if r.pos < r.end {
         return Err(WeightsError::TrailingBytes {
             extra: r.end - r.pos,
         });
-    }
-    let (content, trailer) = bytes
-        .split_at_checked(r.end)
-        .ok_or(WeightsError::Truncated {
-            needed: r.end.saturating_add(4),
-            got: bytes.len(),
-        })?;
-    let stored = match *trailer {
-        [a, b, c, d] => u32::from_le_bytes([a, b, c, d]),
-        _ => {
-            return Err(WeightsError::Truncated {
-                needed: r.end.saturating_add(4),
-                got: bytes.len(),
-            })
-        }
-    };
-    let computed = crc32(content);
-    if stored != computed {
-        return Err(WeightsError::CrcMismatch { stored, computed });
-    }
-    if let Some(e) = shape_error {
-        return Err(e);
     }
     validate_quantization(&net)?;
     Ok(net)
@@ -463,14 +585,26 @@ fn validate_quantization<const N: usize>(net: &QNetwork<'_, N>) -> Result<(), We
         {
             return Err(bad);
         }
-        let oc = l.spec.out_c.min(MAX_CHANNELS);
-        for (&m, &s) in l.multiplier.iter().zip(&l.shift).take(oc) {
+        if l.weights.contains(&i8::MIN) {
+            return Err(bad);
+        }
+        let terms = accumulator_terms_bound(l.spec.kernel * l.spec.kernel * l.spec.in_c);
+        for c in 0..l.spec.out_c {
+            let (Some(b), Some(m), Some(s)) = (l.bias(c), l.multiplier(c), l.shift(c)) else {
+                return Err(bad);
+            };
             if !(m == 0 || m >= 1 << 30) || !(SHIFT_MIN..=SHIFT_MAX).contains(&s) {
                 return Err(bad);
             }
-        }
-        if l.weights.contains(&i8::MIN) {
-            return Err(bad);
+            // |acc| <= |bias| + field * 255 * 127, and the requantization first shifts the
+            // accumulator left by max(shift, 0): both must stay within i32.
+            let acc = b.unsigned_abs() as i64 + terms;
+            if acc << s.max(0) > i32::MAX as i64 {
+                return Err(WeightsError::AccumulatorOverflow {
+                    layer: i,
+                    channel: c,
+                });
+            }
         }
         prev_zp = l.output_zp;
     }
@@ -508,9 +642,16 @@ mod tests {
             parse(b"NOPE0000000000000000", &spec).err(),
             Some(WeightsError::BadMagic)
         );
+        // A damaged short file is truncated; with a valid CRC, its version is read.
         let mut v = [0u8; 20];
         v[..4].copy_from_slice(&MAGIC);
         v[4] = 9;
+        assert!(matches!(
+            parse(&v, &spec),
+            Err(WeightsError::Truncated { .. })
+        ));
+        let crc = crc32(&v[..16]).to_le_bytes();
+        v[16..].copy_from_slice(&crc);
         assert_eq!(
             parse(&v, &spec).err(),
             Some(WeightsError::UnsupportedVersion(9))

@@ -29,6 +29,17 @@ pub enum FrameStatus {
     Saturated,
 }
 
+impl core::fmt::Display for FrameStatus {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Ok => "sampled",
+            Self::Missing => "no frame given",
+            Self::Black => "the frame is black",
+            Self::Saturated => "the frame is saturated",
+        })
+    }
+}
+
 /// What [`Lut::apply`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

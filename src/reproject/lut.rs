@@ -147,7 +147,8 @@ impl<'a> Lut<'a> {
         pose.validate()?;
         let width = params.width_px as usize;
         let height = params.height_px as usize;
-        if width < 2 || height < 2 || stride < width {
+        let min = super::MIN_FRAME_PX as usize;
+        if width < min || height < min || stride < width {
             return Err(ReprojectError::FrameTooSmall);
         }
         match stride.checked_mul(height) {

@@ -59,6 +59,10 @@ pub const DEFAULT_M_PER_PX: f32 = 0.25;
 /// this leaves a wide margin. Overflowing it only drops feathering, never data.
 pub const DEFAULT_EXTRA: usize = table_len(DEFAULT_N) / 8;
 
+/// Smallest camera frame side the reprojection can sample (bilinear taps need 2 x 2
+/// pixels), pixels.
+pub const MIN_FRAME_PX: u32 = 2;
+
 /// Number of primary cells of an `n x n` grid (`n * n`; 0 on overflow).
 pub const fn table_len(n: usize) -> usize {
     match n.checked_mul(n) {
@@ -323,6 +327,66 @@ pub enum Buffer {
     /// The validity mask (`n * n` bytes).
     Mask,
 }
+
+impl core::fmt::Display for ReprojectError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::Camera(e) => write!(f, "{e}"),
+            Self::BadGridSize => write!(f, "the top-down grid side must be 1 to 65535 cells"),
+            Self::BadResolution => write!(
+                f,
+                "the top-down grid resolution must be a finite number of metres per cell above 0"
+            ),
+            Self::BadMaxRange => write!(f, "the maximum range must be a number of metres above 0"),
+            Self::BadBand => write!(
+                f,
+                "the band of grid rows is empty or reaches past the grid; give rows inside the grid"
+            ),
+            Self::FrameTooSmall => write!(
+                f,
+                "the camera frames must be at least 2 x 2 pixels, with a row stride of at least the width"
+            ),
+            Self::FrameTooLarge => write!(
+                f,
+                "the camera frames are too large for the lookup table (stride x height must stay below 2^30 bytes); use smaller frames"
+            ),
+            Self::BufferSize {
+                buffer,
+                needed,
+                got,
+            } => {
+                let name = match buffer {
+                    Buffer::Cells => "lookup-table",
+                    Buffer::Output => "top-down image",
+                    Buffer::Mask => "mask",
+                };
+                write!(
+                    f,
+                    "the {name} buffer has {got} elements, {needed} are needed; size it for the grid"
+                )
+            }
+            Self::FrameSize {
+                view,
+                expected,
+                got,
+            } => write!(
+                f,
+                "camera frame {view} is {} x {} pixels, the table was built for {} x {}; rebuild the table or pass frames of that size",
+                got.0, got.1, expected.0, expected.1
+            ),
+            Self::FrameStride {
+                view,
+                expected,
+                got,
+            } => write!(
+                f,
+                "camera frame {view} has a row stride of {got} bytes, the table was built for {expected}; rebuild the table for this stride"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for ReprojectError {}
 
 impl From<CameraError> for ReprojectError {
     fn from(e: CameraError) -> Self {

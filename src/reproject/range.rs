@@ -203,6 +203,41 @@ pub enum RangeError {
     Overflow,
 }
 
+impl core::fmt::Display for RangeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::Reproject(e) => write!(f, "{e}"),
+            Self::DepthSize {
+                view,
+                expected,
+                got,
+            } => write!(
+                f,
+                "depth image {view} is {} x {} pixels, its camera frame {} x {}; give depth images of the frames' size",
+                got.0, got.1, expected.0, expected.1
+            ),
+            Self::ScratchSize { needed, got } => write!(
+                f,
+                "the range scratch has {got} elements, {needed} are needed; size it with range_scratch_len"
+            ),
+            Self::BadDepthScale => write!(
+                f,
+                "the depth scale must be a finite number of metres per unit above 0, and the maximum depth above 0"
+            ),
+            Self::BadOption => write!(
+                f,
+                "a range option is out of range: the height band must be a non-empty interval, the fill neighbours at most 8, the column stride 1 to 16"
+            ),
+            Self::Overflow => write!(
+                f,
+                "the grid resolution is too fine for the depth scale (a ray would overflow the fixed-point range); use coarser cells or a finer depth unit"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for RangeError {}
+
 impl From<ReprojectError> for RangeError {
     fn from(e: ReprojectError) -> Self {
         RangeError::Reproject(e)

@@ -268,7 +268,7 @@ fn bench_world(args: &Args) -> anyhow::Result<()> {
     let attrs = render::raster::NodeAttrs::compute(&terrain, &shadow);
     let t_attrs = t.elapsed().as_secs_f64();
     let cam = orbfix::camera::Camera::new(&params, &pose, orbfix::camera::View::Front)
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let t = Instant::now();
     std::hint::black_box(render::raster::render_view(
         &terrain, &attrs, &cam, &sun, &opts,
@@ -285,7 +285,7 @@ fn bench_world(args: &Args) -> anyhow::Result<()> {
     );
     if args.map {
         let geo = GeoRef::centred(1000.0, 1000.0, 1200, 1200, 0.25)
-            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
         let t = Instant::now();
         let m = render::render_ortho(&world, &geo, 1200, 1200, sun, &opts)?;
         std::hint::black_box(m);

@@ -61,10 +61,10 @@ pub struct Args {
     right_gain: f64,
     /// Gaussian sensor noise, gray levels (standard deviation; 0 = none; each camera draws
     /// its own).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     noise: f64,
     /// Largest rover pitch and roll, degrees (each drawn in [-A, A] per location; 0 = level).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     max_attitude: f64,
     /// Number of locations (overrides the preset; split 93/5/2 %, at least one each).
     #[arg(long)]
@@ -82,12 +82,16 @@ pub fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
     let w: u32 = w
         .trim()
         .parse()
-        .with_context(|| format!("width '{w}' is not a positive whole number"))?;
+        .with_context(|| format!("width '{w}' in --size {s} is not a positive whole number"))?;
     let h: u32 = h
         .trim()
         .parse()
-        .with_context(|| format!("height '{h}' is not a positive whole number"))?;
-    ensure!(w > 0 && h > 0, "size {s}: width and height must be > 0");
+        .with_context(|| format!("height '{h}' in --size {s} is not a positive whole number"))?;
+    let min = orbfix::reproject::MIN_FRAME_PX;
+    ensure!(
+        w >= min && h >= min,
+        "size {s}: the views must be at least {min}x{min} pixels (the smallest the reprojection can use)"
+    );
     ensure!(w <= 8192 && h <= 8192, "size {s}: at most 8192 px per side");
     Ok((w, h))
 }

@@ -70,9 +70,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .context("map buffer has the wrong size")?;
     save_png_atomic(&img, &a.out)?;
     let meta = MapMeta {
-        origin_x_m: map.geo.origin_x_m as f64,
-        origin_y_m: map.geo.origin_y_m as f64,
-        m_per_px: map.geo.m_per_px as f64,
+        origin_x_m: map.geo.origin_x_m() as f64,
+        origin_y_m: map.geo.origin_y_m() as f64,
+        m_per_px: map.geo.m_per_px() as f64,
         width_px: map.width,
         height_px: map.height,
         world_seed: Some(a.seed),

@@ -119,14 +119,14 @@ pub fn run(a: Args) -> Result<()> {
             );
             set.iter()
                 .take(a.calibration / 2)
-                .flat_map(|t| [t.rover, t.positive])
+                .flat_map(|t| [*t.rover, *t.positive])
                 .collect()
         }
         None => (0..a.calibration as u64 / 2)
             .into_par_iter()
             .flat_map_iter(|i| {
                 let t = triplet(&world, &VAL_ZONE, 0xCA11_B4A7, i, 0.5, 0.15);
-                [t.rover, t.positive]
+                [*t.rover, *t.positive]
             })
             .collect(),
     };
@@ -136,7 +136,7 @@ pub fn run(a: Args) -> Result<()> {
     let bytes = q.to_bytes();
     // The core must accept what we ship.
     let qnet = SiameseNet::from_bytes(&bytes)
-        .map_err(|e| anyhow::anyhow!("the core rejects the quantized file: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("the core rejects the quantized file: {e}"))?;
     if let Some(dir) = a.out.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -166,7 +166,7 @@ pub fn run(a: Args) -> Result<()> {
         let t = std::time::Instant::now();
         for x in &calib[..reps] {
             qnet.embed(x, &mut arena, &mut e)
-                .map_err(|e| anyhow::anyhow!("int8 embedding failed: {e:?}"))?;
+                .map_err(|e| anyhow::anyhow!("int8 embedding failed: {e}"))?;
         }
         let int8_us = t.elapsed().as_secs_f64() * 1e6 / reps as f64;
         let refs: Vec<_> = calib[..reps].iter().collect();

@@ -235,9 +235,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             println!(
                 "wrote {} (satellite NW corner ({:.3}, {:.3}) m, {} m/px)",
                 out.display(),
-                geo.origin_x_m,
-                geo.origin_y_m,
-                geo.m_per_px
+                geo.origin_x_m(),
+                geo.origin_y_m(),
+                geo.m_per_px()
             );
         }
         What::Map {
@@ -259,7 +259,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
             let n = (size_m / m_per_px).round() as u32;
             let geo = GeoRef::centred(x as f32, y as f32, n as usize, n as usize, m_per_px as f32)
-                .map_err(|e| anyhow::anyhow!("bad map georeference: {e:?}"))?;
+                .map_err(|e| anyhow::anyhow!("bad map georeference: {e}"))?;
             let img = render::render_ortho(&world, &geo, n, n, sun, &opts)?;
             if let Some(p) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
                 ensure_dir(p)?;
@@ -268,9 +268,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             println!(
                 "wrote {} ({n}x{n} px, NW corner ({:.3}, {:.3}) m, {} m/px)",
                 out.display(),
-                geo.origin_x_m,
-                geo.origin_y_m,
-                geo.m_per_px
+                geo.origin_x_m(),
+                geo.origin_y_m(),
+                geo.m_per_px()
             );
         }
         What::Figure { common, x, y, out } => {
@@ -280,7 +280,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let (sat, _) = render::render_satellite_crop(&world, x, y, 200, 0.25, sun, &opts)?;
             // 300 m map at 0.5 m/px, the crop's 50 m square outlined in its centre.
             let geo = GeoRef::centred(x as f32, y as f32, 600, 600, 0.5)
-                .map_err(|e| anyhow::anyhow!("bad map georeference: {e:?}"))?;
+                .map_err(|e| anyhow::anyhow!("bad map georeference: {e}"))?;
             let mut map = render::render_ortho(&world, &geo, 600, 600, sun, &opts)?;
             for k in 250..=350u32 {
                 for (a, b) in [(k, 250), (k, 350), (250, k), (350, k)] {

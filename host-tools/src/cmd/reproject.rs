@@ -240,7 +240,7 @@ pub fn run(args: Args) -> Result<()> {
     for (k, st) in report.status.iter().enumerate() {
         if *st != FrameStatus::Ok {
             println!(
-                "warning: {} view not used ({st:?}); {} cells lost to no data",
+                "warning: {} view not used ({st}); {} cells lost to no data",
                 NAMES[k], report.lost_cells
             );
         }

@@ -625,7 +625,7 @@ pub fn describe_fix(loc: &Localization) -> serde_json::Value {
             "x_m": c.x_m, "y_m": c.y_m, "score": c.score, "refined": c.refined
         })).collect::<Vec<_>>(),
         "best_windows": order.iter().take(10).map(|&i| serde_json::json!({
-            "index": i, "col": i % loc.window_grid.cols, "row": i / loc.window_grid.cols,
+            "index": i, "col": i % loc.window_grid.cols(), "row": i / loc.window_grid.cols(),
             "score": loc.window_scores[i]
         })).collect::<Vec<_>>(),
         "ops": {"coarse": ops_json(&f.ops_coarse), "fine": ops_json(&f.ops_fine), "windows": ops_json(&loc.window_ops)},

@@ -125,10 +125,10 @@ pub fn map_picture(
             as f32;
         let mut px = [v, v, v];
         // Response cell whose rover position is nearest.
-        let c = ((mx - half) / g.step as f64).round();
-        let r = ((my - half) / g.step as f64).round();
-        if c >= 0.0 && r >= 0.0 && (c as usize) < g.cols && (r as usize) < g.rows {
-            let val = resp[r as usize * g.cols + c as usize];
+        let c = ((mx - half) / g.step() as f64).round();
+        let r = ((my - half) / g.step() as f64).round();
+        if c >= 0.0 && r >= 0.0 && (c as usize) < g.cols() && (r as usize) < g.rows() {
+            let val = resp[r as usize * g.cols() + c as usize];
             let (col, a) = heat((val - lo) / span);
             for k in 0..3 {
                 px[k] = px[k] * (1.0 - a) + col[k] * a;
@@ -156,8 +156,8 @@ pub fn map_picture(
     let wg = loc.window_grid;
     for &i in order.iter().take(5) {
         let (c, r) = (
-            (i % wg.cols * wg.step) as f64,
-            (i / wg.cols * wg.step) as f64,
+            (i % wg.cols() * wg.step()) as f64,
+            (i / wg.cols() * wg.step()) as f64,
         );
         rect(
             &mut img,

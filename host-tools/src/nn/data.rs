@@ -229,15 +229,16 @@ pub fn rover_input(
 }
 
 /// One training example: rover input, matching satellite input, a hard negative (satellite
-/// window 12.5-25 m away in a random direction: same crater field, wrong place).
+/// window 12.5-25 m away in a random direction: same crater field, wrong place). The inputs
+/// are boxed: a `Vec<Triplet>` built from an iterator then keeps no 12 KB items on the stack.
 #[derive(Clone, Debug)]
 pub struct Triplet {
     /// Rover side.
-    pub rover: [i8; INPUT_LEN],
+    pub rover: Box<[i8; INPUT_LEN]>,
     /// Satellite window centred on the rover.
-    pub positive: [i8; INPUT_LEN],
+    pub positive: Box<[i8; INPUT_LEN]>,
     /// Satellite window offset from the rover.
-    pub hard_negative: [i8; INPUT_LEN],
+    pub hard_negative: Box<[i8; INPUT_LEN]>,
 }
 
 /// Deterministic triplet number `index` of stream `seed` in `zone`; `cross_sun_p` is the
@@ -270,18 +271,18 @@ pub fn triplet(
         let neg = sat_input(world, x + dist * ang.sin(), y + dist * ang.cos(), map_sun);
         if let (Some(rover), Some(positive), Some(hard_negative)) = (rover, pos, neg) {
             return Triplet {
-                rover,
-                positive,
-                hard_negative,
+                rover: Box::new(rover),
+                positive: Box::new(positive),
+                hard_negative: Box::new(hard_negative),
             };
         }
         if attempt > 16 {
             // The world is flat everywhere we looked: return an all-zero example rather
             // than loop forever (it carries no gradient signal but keeps shapes).
             return Triplet {
-                rover: [0; INPUT_LEN],
-                positive: [0; INPUT_LEN],
-                hard_negative: [0; INPUT_LEN],
+                rover: Box::new([0; INPUT_LEN]),
+                positive: Box::new([0; INPUT_LEN]),
+                hard_negative: Box::new([0; INPUT_LEN]),
             };
         }
     }

@@ -149,7 +149,7 @@ pub fn scores(scorer: &Scorer<'_>, case: &Case) -> Result<Vec<f32>> {
             let mut arena = Box::new(Arena::new());
             let mut er = [0i8; EMBED_LEN];
             net.embed(&case.rover, &mut arena, &mut er)
-                .map_err(|e| anyhow::anyhow!("int8 embedding failed: {e:?}"))?;
+                .map_err(|e| anyhow::anyhow!("int8 embedding failed: {e}"))?;
             case.windows
                 .par_iter()
                 .map_init(
@@ -158,7 +158,7 @@ pub fn scores(scorer: &Scorer<'_>, case: &Case) -> Result<Vec<f32>> {
                         let mut ew = [0i8; EMBED_LEN];
                         net.embed(w, arena, &mut ew)
                             .map(|_| cosine_q15(&er, &ew, zp) as f32 / 32768.0)
-                            .map_err(|e| anyhow::anyhow!("int8 embedding failed: {e:?}"))
+                            .map_err(|e| anyhow::anyhow!("int8 embedding failed: {e}"))
                     },
                 )
                 .collect::<Result<Vec<f32>>>()?

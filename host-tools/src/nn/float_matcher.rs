@@ -27,6 +27,7 @@ fn to_match_error(e: NnError) -> MatchError {
         NnError::BadGeometry | NnError::BufferSize | NnError::ScratchTooSmall => {
             MatchError::WindowTooSmall
         }
+        NnError::TooLarge => MatchError::TooLarge,
     }
 }
 
@@ -131,7 +132,7 @@ impl Matcher for FloatCnnMatcher {
         let t = self.template(template, weight)?;
         let mut wins = Vec::with_capacity(grid.len());
         for i in 0..grid.len() {
-            let (c, r) = (i % grid.cols, i / grid.cols);
+            let (c, r) = (i % grid.cols(), i / grid.cols());
             let win = region
                 .sub(c * step, r * step, w, h)
                 .ok_or(MatchError::WindowTooSmall)?;

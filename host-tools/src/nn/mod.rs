@@ -12,3 +12,4 @@ pub mod quantize;
 pub mod realdata;
 pub mod reference;
 pub mod train;
+pub mod weights_file;

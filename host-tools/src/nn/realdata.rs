@@ -120,9 +120,9 @@ pub fn sample_triplet(loc: &RealLoc, s: &Sampling, rng: &mut StdRng) -> Option<T
         off(-dist * ang.cos()),
     );
     let mut t = Triplet {
-        rover: loc.rover,
-        positive: [0; INPUT_LEN],
-        hard_negative: [0; INPUT_LEN],
+        rover: Box::new(loc.rover),
+        positive: Box::new([0; INPUT_LEN]),
+        hard_negative: Box::new([0; INPUT_LEN]),
     };
     let ok = prepare_input(&pos, None, WIN_PX, &mut t.positive).is_ok()
         && prepare_input(&neg, None, WIN_PX, &mut t.hard_negative).is_ok();

@@ -159,9 +159,9 @@ fn real_batch(
 /// Symmetric InfoNCE loss and rover -> satellite top-1 accuracy of a batch.
 pub fn loss(net: &FloatNet, b: &[Triplet], temperature: f64) -> Result<(Tensor, f64)> {
     let n = b.len();
-    let mut refs: Vec<&[i8; INPUT_LEN]> = b.iter().map(|t| &t.rover).collect();
-    refs.extend(b.iter().map(|t| &t.positive));
-    refs.extend(b.iter().map(|t| &t.hard_negative));
+    let mut refs: Vec<&[i8; INPUT_LEN]> = b.iter().map(|t| &*t.rover).collect();
+    refs.extend(b.iter().map(|t| &*t.positive));
+    refs.extend(b.iter().map(|t| &*t.hard_negative));
     let e = net.embed(&batch_tensor(&refs)?)?;
     let r = e.narrow(0, 0, n)?;
     let s = e.narrow(0, n, 2 * n)?;

@@ -117,7 +117,7 @@ impl Surface for World {
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum RenderError {
     /// Camera or pose parameters rejected by the camera model.
-    #[error("bad camera or pose: {0:?} (size must be > 0, HFOV in (0, 180) deg, tilt in [-89, 89] deg, height in (0, 100] m, pitch/roll in [-60, 60] deg, all finite)")]
+    #[error("bad camera or pose: {0}")]
     Camera(CameraError),
     /// Sun elevation or azimuth not finite or out of range.
     #[error("bad sun: {0}")]
@@ -639,7 +639,7 @@ pub fn render_satellite_crop_cached(
         size_px as usize,
         m_per_px as f32,
     )
-    .map_err(|e| RenderError::Option(format!("bad satellite georeference: {e:?}")))?;
+    .map_err(|e| RenderError::Option(format!("bad satellite georeference: {e}")))?;
     let img = ortho::render_ortho_cached(world, &geo, size_px, size_px, sun, opts, cache)?;
     Ok((img, geo))
 }

@@ -44,22 +44,16 @@ pub fn render_ortho_cached(
             "orthographic size {w}x{h} must be 1..={MAX_ORTHO_PX} px per side"
         )));
     }
-    if !(geo.m_per_px.is_finite()
-        && geo.m_per_px > 0.0
-        && geo.origin_x_m.is_finite()
-        && geo.origin_y_m.is_finite())
-    {
-        return Err(RenderError::Option(format!(
-            "bad georeference {geo:?}: resolution must be > 0 and the origin finite"
-        )));
-    }
+    // `geo` was checked by `GeoRef::new` (finite origin, positive resolution).
     // Supersampling: each pixel averages the radiance of s x s samples spread evenly over
     // its footprint (a box filter, as a real sensor integrates), centred on the pixel centre.
     let ss = opts.ortho_supersample.max(1) as usize;
-    let fine = GeoRef {
-        m_per_px: geo.m_per_px / ss as f32,
-        ..*geo
-    };
+    let fine = GeoRef::new(
+        geo.origin_x_m(),
+        geo.origin_y_m(),
+        geo.m_per_px() / ss as f32,
+    )
+    .map_err(|e| RenderError::Option(format!("supersampled georeference: {e}")))?;
     let (fw, fh) = (w * ss as u32, h * ss as u32);
     let terrain = Terrain::region(world, &fine, fw, fh, opts.shadow_reach_m, cache);
     let shadow = ShadowField::build_levels(&terrain, &sun, opts.shadow_reach_m, 1);

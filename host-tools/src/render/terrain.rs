@@ -239,9 +239,9 @@ impl Terrain {
         reach_m: f64,
         cache: Option<&TileCache>,
     ) -> Self {
-        let m = geo.m_per_px as f64;
-        let ox = geo.origin_x_m as f64;
-        let oy = geo.origin_y_m as f64;
+        let m = geo.m_per_px() as f64;
+        let ox = geo.origin_x_m() as f64;
+        let oy = geo.origin_y_m() as f64;
         let (nx, ny) = (w as usize + 2, h as usize + 2);
         // Sample by bands of rows in parallel.
         let band = 64usize;
