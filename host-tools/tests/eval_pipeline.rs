@@ -28,15 +28,22 @@ fn eval_runs_the_whole_pipeline_and_reports() {
         seed: 3,
         queries: 2,
         condition: Condition::SameSun,
-        matchers: vec!["ncc-hp2".into(), "l1".into()],
+        matchers: vec!["ncc-hp2".into(), "l1".into(), "fix".into()],
         localize: LocalizeConfig::default(),
         stride_px: 50,
         pipeline: small(Reprojection::Range),
         keep_examples: 1,
         flat_world: false,
+        weights: orbfix::nn::model::SHIPPED_WEIGHTS.to_vec(),
     };
     let out = run_eval(&cfg, false).unwrap();
-    assert_eq!(out.reports.len(), 2);
+    assert_eq!(out.reports.len(), 3);
+    // The fix matcher reports what its users read: acceptance, wrong-but-confident fixes,
+    // bound coverage and the exact configuration.
+    let f = out.reports[2].fix.as_ref().expect("fix statistics");
+    assert!(f.config.contains("FixConfig") && (0.0..=1.0).contains(&f.accepted_share));
+    assert!(out.reports[2].per_query.iter().all(|q| q.status.is_some() && q.path.is_some()));
+    assert!(out.reports[0].fix.is_none());
     assert_eq!(out.examples.len(), 1);
     let r = &out.reports[0];
     assert_eq!((r.queries, r.windows_per_query), (2, 13 * 13));
