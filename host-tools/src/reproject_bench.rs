@@ -133,13 +133,13 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         ..CameraParams::default()
     };
     params.validate().map_err(|e| {
-        anyhow::anyhow!("bad view size {}x{}: {e:?}", opts.width_px, opts.height_px)
+        anyhow::anyhow!("bad view size {}x{}: {e}", opts.width_px, opts.height_px)
     })?;
     let pose = RoverPose::level(3.0, -2.0, 0.0, 30.0);
     let grid = GridSpec::new(opts.n, opts.m_per_px);
     grid.validate().map_err(|e| {
         anyhow::anyhow!(
-            "bad grid {} x {} at {} m: {e:?}",
+            "bad grid {} x {} at {} m: {e}",
             opts.n,
             opts.n,
             opts.m_per_px
@@ -178,7 +178,7 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         &grid,
         params.width_px as usize,
     )
-    .map_err(|e| anyhow::anyhow!("table build failed: {e:?}"))?;
+    .map_err(|e| anyhow::anyhow!("table build failed: {e}"))?;
     let stats = *lut.stats();
 
     // Apply (per frame set).
@@ -292,7 +292,7 @@ pub fn flat_ground_depths(params: &CameraParams, pose: &RoverPose) -> Result<[Ve
     let mut out: [Vec<u16>; 4] = Default::default();
     for (o, view) in out.iter_mut().zip(View::ALL) {
         let cam = Camera::new(params, pose, view)
-            .map_err(|e| anyhow::anyhow!("camera of {view:?}: {e:?}"))?;
+            .map_err(|e| anyhow::anyhow!("camera of {view:?}: {e}"))?;
         let (w, h) = (params.width_px as usize, params.height_px as usize);
         let rt = cam.world_to_cam.transpose();
         *o = (0..w * h)
@@ -335,8 +335,8 @@ fn bench_range(
         .zip(dviews.iter_mut())
         .zip(frames.iter().zip(&depths))
     {
-        *v = Some(ImageView::new(f.as_raw(), w, h).map_err(|e| anyhow::anyhow!("{e:?}"))?);
-        *dv = Some(DepthView::new(d, w, h).map_err(|e| anyhow::anyhow!("{e:?}"))?);
+        *v = Some(ImageView::new(f.as_raw(), w, h).map_err(|e| anyhow::anyhow!("{e}"))?);
+        *dv = Some(DepthView::new(d, w, h).map_err(|e| anyhow::anyhow!("{e}"))?);
     }
     let n_cells = grid.cells();
     let mut scratch = vec![0u32; range_scratch_len(grid.n)];

@@ -175,9 +175,9 @@ pub fn reproject_f64(
 ) -> Result<RefTopDown> {
     params
         .validate()
-        .map_err(|e| anyhow::anyhow!("bad camera parameters: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("bad camera parameters: {e}"))?;
     pose.validate()
-        .map_err(|e| anyhow::anyhow!("bad rover pose: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("bad rover pose: {e}"))?;
     ensure!(
         n > 0 && m_per_px > 0.0,
         "grid must be non-empty with a positive resolution"
@@ -249,9 +249,9 @@ pub fn render_flat_ground(
     use rayon::prelude::*;
     params
         .validate()
-        .map_err(|e| anyhow::anyhow!("bad camera parameters: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("bad camera parameters: {e}"))?;
     pose.validate()
-        .map_err(|e| anyhow::anyhow!("bad rover pose: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("bad rover pose: {e}"))?;
     let (w, h) = (params.width_px, params.height_px);
     let f = focal_f64(params);
     let (cx, cy) = (0.5 * w as f64, 0.5 * h as f64);

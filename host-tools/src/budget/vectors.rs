@@ -120,7 +120,7 @@ impl Vectors {
         for (i, f) in frames.iter_mut().enumerate() {
             *f = Some(
                 orbfix::image::ImageView::new(&self.frames[i * n..(i + 1) * n], w, h)
-                    .map_err(|e| anyhow::anyhow!("bad frame: {e:?}"))?,
+                    .map_err(|e| anyhow::anyhow!("bad frame: {e}"))?,
             );
         }
         runner.run(

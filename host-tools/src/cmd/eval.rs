@@ -164,7 +164,7 @@ pub fn load_weights(path: Option<&Path>) -> anyhow::Result<Vec<u8>> {
     };
     orbfix::nn::model::SiameseNet::from_bytes(&bytes).map_err(|e| {
         anyhow::anyhow!(
-            "{} is not a usable weight file ({e:?}); write one with `orbfix quantize`",
+            "{} is not a usable weight file ({e}); write one with `orbfix quantize`",
             path.map_or("the shipped weights".into(), |p| p.display().to_string())
         )
     })?;

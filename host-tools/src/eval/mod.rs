@@ -182,7 +182,7 @@ impl MapRegion {
     /// A core view of the map.
     pub fn view(&self) -> anyhow::Result<ImageView<'_>> {
         ImageView::new(&self.image, self.width, self.height)
-            .map_err(|e| anyhow::anyhow!("map image does not match its size: {e:?}"))
+            .map_err(|e| anyhow::anyhow!("map image does not match its size: {e}"))
     }
 }
 
@@ -230,11 +230,11 @@ pub fn weights_for(spec: &MatcherSpec, top: &TopDown) -> anyhow::Result<Vec<u8>>
         Some(r0) => {
             let mut out = vec![0u8; top.n * top.n];
             let m = ImageView::new(&top.mask, top.n, top.n)
-                .map_err(|e| anyhow::anyhow!("bad top-down mask: {e:?}"))?;
+                .map_err(|e| anyhow::anyhow!("bad top-down mask: {e}"))?;
             let mut o = ImageViewMut::new(&mut out, top.n, top.n)
-                .map_err(|e| anyhow::anyhow!("bad weight buffer: {e:?}"))?;
+                .map_err(|e| anyhow::anyhow!("bad weight buffer: {e}"))?;
             distance_weights(&m, &mut o, r0)
-                .map_err(|e| anyhow::anyhow!("distance weighting failed: {e:?}"))?;
+                .map_err(|e| anyhow::anyhow!("distance weighting failed: {e}"))?;
             Ok(out)
         }
     }
@@ -257,16 +257,16 @@ fn highpassed(
     h: usize,
     radius: usize,
 ) -> anyhow::Result<Vec<u8>> {
-    let src = ImageView::new(img, w, h).map_err(|e| anyhow::anyhow!("bad image: {e:?}"))?;
+    let src = ImageView::new(img, w, h).map_err(|e| anyhow::anyhow!("bad image: {e}"))?;
     let m = match mask {
-        Some(m) => Some(ImageView::new(m, w, h).map_err(|e| anyhow::anyhow!("bad mask: {e:?}"))?),
+        Some(m) => Some(ImageView::new(m, w, h).map_err(|e| anyhow::anyhow!("bad mask: {e}"))?),
         None => None,
     };
     let mut out = vec![0u8; w * h];
-    let mut o = ImageViewMut::new(&mut out, w, h).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let mut o = ImageViewMut::new(&mut out, w, h).map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut scratch = vec![0u32; orbfix::matcher::prep::highpass_buffer_len(w)];
     orbfix::matcher::prep::highpass(&src, m.as_ref(), radius, &mut o, &mut scratch)
-        .map_err(|e| anyhow::anyhow!("high-pass failed: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("high-pass failed: {e}"))?;
     Ok(out)
 }
 
@@ -329,13 +329,13 @@ pub fn localize_top_down(
     }
     let p = prepare(spec, top, map)?;
     let t = ImageView::new(&p.top, top.n, top.n)
-        .map_err(|e| anyhow::anyhow!("bad top-down image: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("bad top-down image: {e}"))?;
     let w = ImageView::new(&p.weights, top.n, top.n)
-        .map_err(|e| anyhow::anyhow!("bad top-down mask: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("bad top-down mask: {e}"))?;
     let m = ImageView::new(&p.map, map.width, map.height)
-        .map_err(|e| anyhow::anyhow!("map image does not match its size: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("map image does not match its size: {e}"))?;
     let (nb, nf) = localize::buffer_sizes(top.n, top.n, map.width, map.height, cfg)
-        .map_err(|e| anyhow::anyhow!("localization set-up rejected: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("localization set-up rejected: {e}"))?;
     let mut bytes = vec![0u8; nb];
     let mut floats = vec![0f32; nf];
     let t0 = Instant::now();
@@ -356,7 +356,7 @@ pub fn localize_top_down(
     let dense_s = t0.elapsed().as_secs_f64();
     let coarse_response = floats[..fix.coarse_grid.len()].to_vec();
     let grid = Grid::new(top.n, top.n, map.width, map.height, stride_px)
-        .map_err(|e| anyhow::anyhow!("window grid: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("window grid: {e}"))?;
     let mut window_scores = vec![0f32; grid.len()];
     let mut window_ops = OpCounts::default();
     let t1 = Instant::now();
@@ -437,13 +437,13 @@ pub fn localize_fix(
     let n = runner.cfg.grid.n;
     let (cols, rows, step) = out.grid;
     let cg = Grid::new(n, n, map.width, map.height, step)
-        .map_err(|e| anyhow::anyhow!("window grid: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("window grid: {e}"))?;
     anyhow::ensure!(
         cg.len() == cols * rows,
         "map product grid differs from the map"
     );
     let wg = Grid::new(n, n, map.width, map.height, stride_px)
-        .map_err(|e| anyhow::anyhow!("window grid: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("window grid: {e}"))?;
     let r = &out.report;
     let windows = r.windows as usize;
     let coarse_response: Vec<f32> = if windows > 0 {
@@ -555,7 +555,7 @@ pub fn load_map(png: &std::path::Path, meta: &std::path::Path) -> anyhow::Result
         )
     })?;
     let geo = GeoRef::new(m.origin_x_m as f32, m.origin_y_m as f32, m.m_per_px as f32)
-        .map_err(|e| anyhow::anyhow!("{}: bad georeference {e:?}", meta.display()))?;
+        .map_err(|e| anyhow::anyhow!("{}: bad georeference {e}", meta.display()))?;
     let img = image::open(png)
         .with_context(|| format!("cannot read the map image {}", png.display()))?
         .to_luma8();

@@ -76,7 +76,7 @@ impl Observation {
         for (f, v) in frames.iter_mut().zip(&self.views) {
             *f = Some(
                 ImageView::new(v.as_raw(), v.width() as usize, v.height() as usize)
-                    .map_err(|e| anyhow::anyhow!("bad view image: {e:?}"))?,
+                    .map_err(|e| anyhow::anyhow!("bad view image: {e}"))?,
             );
         }
         Ok(frames)
@@ -201,11 +201,11 @@ pub fn reproject_depths_with(
         let (w, h) = (v.width() as usize, v.height() as usize);
         *f = Some(
             ImageView::new(v.as_raw(), w, h)
-                .map_err(|e| anyhow::anyhow!("bad view image: {e:?}"))?,
+                .map_err(|e| anyhow::anyhow!("bad view image: {e}"))?,
         );
         *dv = Some(
             reproject::DepthView::new(d, w, h)
-                .map_err(|e| anyhow::anyhow!("bad depth image ({w} x {h} expected): {e:?}"))?,
+                .map_err(|e| anyhow::anyhow!("bad depth image ({w} x {h} expected): {e}"))?,
         );
     }
     let n = grid.n;
@@ -223,7 +223,7 @@ pub fn reproject_depths_with(
         &mut out,
         &mut mask,
     )
-    .map_err(|e| anyhow::anyhow!("range reprojection failed: {e:?}"))?;
+    .map_err(|e| anyhow::anyhow!("range reprojection failed: {e}"))?;
     Ok((
         TopDown {
             image: out,
@@ -297,7 +297,7 @@ pub fn reproject_views(
     for (f, v) in frames.iter_mut().zip(views) {
         *f = Some(
             ImageView::new(v.as_raw(), v.width() as usize, v.height() as usize)
-                .map_err(|e| anyhow::anyhow!("bad view image: {e:?}"))?,
+                .map_err(|e| anyhow::anyhow!("bad view image: {e}"))?,
         );
     }
     let n = grid.n;
@@ -308,7 +308,7 @@ pub fn reproject_views(
     reproject::reproject_top_down(
         &frames, &params, pose, grid, &mut cells, &mut extra, &mut out, &mut mask,
     )
-    .map_err(|e| anyhow::anyhow!("reprojection failed: {e:?}"))?;
+    .map_err(|e| anyhow::anyhow!("reprojection failed: {e}"))?;
     Ok(TopDown {
         image: out,
         mask,

@@ -186,9 +186,9 @@ fn score_at(
     col: usize,
     row: usize,
 ) -> anyhow::Result<f64> {
-    let t = ImageView::new(&p.top, top.n, top.n).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let w = ImageView::new(&p.weights, top.n, top.n).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    let m = ImageView::new(&p.map, map.width, map.height).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let t = ImageView::new(&p.top, top.n, top.n).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let w = ImageView::new(&p.weights, top.n, top.n).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let m = ImageView::new(&p.map, map.width, map.height).map_err(|e| anyhow::anyhow!("{e}"))?;
     let win = m
         .sub(col, row, top.n, top.n)
         .ok_or_else(|| anyhow::anyhow!("pair window ({col}, {row}) outside the map"))?;
@@ -199,7 +199,7 @@ fn score_at(
         // input) scores both pairs at the floor: a tie.
         Err(orbfix::matcher::MatchError::NoValidPixels)
         | Err(orbfix::matcher::MatchError::FeaturelessTemplate) => Ok(-1.0),
-        Err(e) => Err(anyhow::anyhow!("pair score: {e:?}")),
+        Err(e) => Err(anyhow::anyhow!("pair score: {e}")),
     }
 }
 
@@ -408,7 +408,7 @@ pub fn run_eval_on(
             cfg.pipeline.map_px,
             cfg.stride_px,
         )
-        .map_err(|e| anyhow::anyhow!("window grid: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("window grid: {e}"))?;
         g.len()
     };
     let settings = serde_json::json!({

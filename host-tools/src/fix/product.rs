@@ -37,7 +37,7 @@ pub fn build_map_product(
     opts: &MapProductOptions,
 ) -> anyhow::Result<Vec<u8>> {
     let net = SiameseNet::from_bytes(weights)
-        .map_err(|e| anyhow::anyhow!("the weight file was refused: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("the weight file was refused: {e}"))?;
     let meta = MapProductMeta {
         geo: map.geo,
         width: map.width,
@@ -80,7 +80,7 @@ pub fn build_map_product(
                     chunk,
                 )
                 .map(|_| ())
-                .map_err(|e| anyhow::anyhow!("window records of row {r}: {e:?}"))
+                .map_err(|e| anyhow::anyhow!("window records of row {r}: {e}"))
             },
         )
         .context("computing the map product's window records")?;

@@ -66,7 +66,7 @@ impl FixRunner {
             for (dv, d) in dviews.iter_mut().zip(ds) {
                 *dv = Some(
                     DepthView::new(d, w, h)
-                        .map_err(|e| anyhow::anyhow!("depth image is not {w} x {h}: {e:?}"))?,
+                        .map_err(|e| anyhow::anyhow!("depth image is not {w} x {h}: {e}"))?,
                 );
             }
         }
