@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# GeoTIFF interoperability against GDAL itself (docs/interop-geotiff.md):
+# GeoTIFF interoperability against GDAL itself (docs/interop.md):
 #   orbfix -> GDAL: `orbfix export-geotiff` files give the georeference, CRS and values
 #                   orbfix meant under gdalinfo -json, gdallocationinfo and python3-gdal;
 #   GDAL -> orbfix: files python3-gdal writes (tiled/striped, compressed, PixelIsArea and

@@ -39,6 +39,14 @@ else
   bash scripts/python-check.sh
 fi
 
+step "GeoTIFF against GDAL itself: files GDAL writes read right, files orbfix writes georeferenced right (docs/interop.md)"
+if [ "${ORBFIX_SKIP_GDAL:-0}" = 1 ]; then
+  echo "skipped (ORBFIX_SKIP_GDAL=1)"
+else
+  # Installs gdal-bin and python3-gdal (Debian) when missing.
+  bash scripts/gdal-check.sh
+fi
+
 step "flight target: Cortex-M7 (thumbv7em-none-eabihf) build, no-panic link, QEMU run, bit-exact"
 if [ "${ORBFIX_SKIP_FLIGHT:-0}" = 1 ]; then
   echo "skipped (ORBFIX_SKIP_FLIGHT=1)"

@@ -70,7 +70,7 @@ pub struct Args {
     #[arg(long)]
     pub flat_world: bool,
     /// A real DEM (single-band GeoTIFF, projected CRS in metres) instead of the built-in
-    /// world; rover stops are drawn inside it (docs/interop-geotiff.md). Needs --ortho.
+    /// world; rover stops are drawn inside it (docs/interop.md). Needs --ortho.
     #[arg(long, requires = "ortho", conflicts_with = "flat_world")]
     pub dem: Option<PathBuf>,
     /// The orthoimage GeoTIFF drawn as albedo over --dem.

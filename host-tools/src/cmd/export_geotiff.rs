@@ -1,6 +1,6 @@
 //! `orbfix export-geotiff`: a square region of the procedural world as a DEM (f32 heights,
 //! metres) and an orthoimage (u8, the renderer's satellite image), both single-band
-//! GeoTIFFs in the world CRS IAU_2015:30110 (docs/interop-geotiff.md), for GDAL and QGIS.
+//! GeoTIFFs in the world CRS IAU_2015:30110 (docs/interop.md), for GDAL and QGIS.
 
 use anyhow::Context;
 use orbfix_host::geotiff::{write_dem_f32, write_ortho_u8, Georeference};

@@ -1,6 +1,6 @@
 //! GeoTIFF in and out: single-band rasters (DEMs, orthoimages) georeferenced in a projected
 //! CRS in metres, mapped to the core's [`orbfix::geo::GeoRef`] (north-west corner, metres per
-//! pixel). What is supported and what is refused: `docs/interop-geotiff.md`.
+//! pixel). What is supported and what is refused: `docs/interop.md`.
 //!
 //! - [`georef`]: the raster-to-model tags (ModelPixelScale + ModelTiepoint, or
 //!   ModelTransformation without rotation; PixelIsArea / PixelIsPoint).

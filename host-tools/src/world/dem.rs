@@ -314,7 +314,7 @@ impl DemTerrain {
 
 impl World {
     /// A world whose terrain is a real DEM and orthoimage (single-band GeoTIFFs in one
-    /// projected CRS in metres; `docs/interop-geotiff.md`) instead of the procedural
+    /// projected CRS in metres; `docs/interop.md`) instead of the procedural
     /// generator: heights, albedo, grids and renders all come from the rasters. Crater and
     /// boulder lists are empty; world coordinates are the CRS's minus
     /// [`DemTerrain::crs_offset_m`].
