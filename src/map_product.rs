@@ -539,18 +539,14 @@ mod tests {
         assert!(MapProductLayout::new(10, 10, 11, 1).is_err());
         assert!(MapProductLayout::new(10, 10, 5, 0).is_err());
         assert!(MapProductLayout::new(usize::MAX, 10, 5, 1).is_err());
+        // An origin of 1e38 m cannot be built, nor read from a file with a valid CRC.
+        assert!(GeoRef::new(1.0e38, 0.0, 0.25).is_err());
         let mut buf = [0u8; 4096];
-        let meta = MapProductMeta {
-            geo: GeoRef::new(1.0e38, 0.0, 0.25).unwrap(),
-            width: 9,
-            height: 9,
-            window_px: 9,
-            step_px: 1,
-            weights_crc: 0,
-            sun_deg: None,
-        };
+        let total = build(&mut buf, 9, 9, 9, 1);
+        buf[20..24].copy_from_slice(&1.0e38f32.to_bits().to_le_bytes());
+        seal(&mut buf[..total]).unwrap();
         assert_eq!(
-            write_header(&meta, &mut buf).unwrap_err(),
+            MapProduct::parse(&buf[..total], CrcCheck::Verify).unwrap_err(),
             MapProductError::BadField { field: "origin" }
         );
     }

@@ -132,9 +132,9 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         height_px: opts.height_px,
         ..CameraParams::default()
     };
-    params.validate().map_err(|e| {
-        anyhow::anyhow!("bad view size {}x{}: {e}", opts.width_px, opts.height_px)
-    })?;
+    params
+        .validate()
+        .map_err(|e| anyhow::anyhow!("bad view size {}x{}: {e}", opts.width_px, opts.height_px))?;
     let pose = RoverPose::level(3.0, -2.0, 0.0, 30.0);
     let grid = GridSpec::new(opts.n, opts.m_per_px);
     grid.validate().map_err(|e| {

@@ -215,7 +215,7 @@ fn bad_generate_options_give_clear_errors() {
         (&["--preset", "huge"], "invalid value 'huge'"),
         (&["--shard", "3/2"], "0-based"),
         (&["--shard", "1/0"], "at least 1"),
-        (&["--size", "0x360"], "must be > 0"),
+        (&["--size", "0x360"], "at least 2x2"),
         (&["--size", "-640x360"], "not a positive whole number"),
         (&["--sun-elevation", "NaN"], "finite"),
         (&["--sun-elevation", "95"], "out of range"),
@@ -245,7 +245,7 @@ fn bad_generate_options_give_clear_errors() {
     assert!(!ok && err.contains("cannot create output folder"), "{err}");
     // Bad FOV through the render command.
     let (ok, err) = orbfix(&["render", "location", "--out", o, "--hfov", "180"]);
-    assert!(!ok && err.contains("HFOV"), "{err}");
+    assert!(!ok && err.contains("horizontal field of view"), "{err}");
 }
 
 #[test]

@@ -42,7 +42,10 @@ fn eval_runs_the_whole_pipeline_and_reports() {
     // bound coverage and the exact configuration.
     let f = out.reports[2].fix.as_ref().expect("fix statistics");
     assert!(f.config.contains("FixConfig") && (0.0..=1.0).contains(&f.accepted_share));
-    assert!(out.reports[2].per_query.iter().all(|q| q.status.is_some() && q.path.is_some()));
+    assert!(out.reports[2]
+        .per_query
+        .iter()
+        .all(|q| q.status.is_some() && q.path.is_some()));
     assert!(out.reports[0].fix.is_none());
     assert_eq!(out.examples.len(), 1);
     let r = &out.reports[0];

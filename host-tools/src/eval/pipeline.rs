@@ -200,8 +200,7 @@ pub fn reproject_depths_with(
     {
         let (w, h) = (v.width() as usize, v.height() as usize);
         *f = Some(
-            ImageView::new(v.as_raw(), w, h)
-                .map_err(|e| anyhow::anyhow!("bad view image: {e}"))?,
+            ImageView::new(v.as_raw(), w, h).map_err(|e| anyhow::anyhow!("bad view image: {e}"))?,
         );
         *dv = Some(
             reproject::DepthView::new(d, w, h)
