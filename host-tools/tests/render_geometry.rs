@@ -243,7 +243,10 @@ fn bad_options_give_clear_errors() {
     o.camera.hfov_deg = 180.0;
     let err = render::render_views(&surf, &pose, Sun::default(), &o).unwrap_err();
     assert_eq!(err, RenderError::Camera(CameraError::FovOutOfRange));
-    assert!(err.to_string().contains("horizontal field of view"), "{err}");
+    assert!(
+        err.to_string().contains("horizontal field of view"),
+        "{err}"
+    );
     let mut o = opts();
     o.camera.width_px = 0;
     assert!(render::render_views(&surf, &pose, Sun::default(), &o).is_err());

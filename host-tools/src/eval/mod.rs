@@ -250,7 +250,7 @@ pub struct Prepared {
     pub map: Vec<u8>,
 }
 
-fn highpassed(
+fn baseline_highpass_image(
     img: &[u8],
     mask: Option<&[u8]>,
     w: usize,
@@ -300,8 +300,8 @@ pub fn prepare(spec: &MatcherSpec, top: &TopDown, map: &MapRegion) -> anyhow::Re
         Some(r_m) => {
             let r = ((r_m / top.m_per_px).round() as usize).max(1);
             Ok(Prepared {
-                top: highpassed(&top.image, Some(&weights), top.n, top.n, r)?,
-                map: highpassed(&map.image, None, map.width, map.height, r)?,
+                top: baseline_highpass_image(&top.image, Some(&weights), top.n, top.n, r)?,
+                map: baseline_highpass_image(&map.image, None, map.width, map.height, r)?,
                 weights,
             })
         }
