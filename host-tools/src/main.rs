@@ -28,12 +28,6 @@ enum Command {
     Eval(cmd::eval::Args),
     /// Write an orbital map region of the built-in world as MAP.png + MAP.json.
     Map(cmd::map::Args),
-    /// Time one localization per matcher (441 windows and dense) with operation counts.
-    BenchLocalize(cmd::bench_localize::Args),
-    /// Write docs/results.md from the reports of scripts/results.sh.
-    Results(cmd::results::Args),
-    /// Pool eval reports of several seeds into the fix's accuracy table (scripts/fix-results.sh).
-    FixReport(cmd::fix_report::Args),
     /// Reproject a dataset location's four views to a north-up top-down image (core LUT).
     Reproject(cmd::reproject::Args),
     /// Print the terrain elevation (metres) at a world point of the built-in world.
@@ -50,10 +44,31 @@ enum Command {
     },
     /// Build the flight firmware, run it in QEMU and write the timing and memory budget.
     Budget(cmd::budget::Args),
+    /// Interoperability and report commands (flattened: they are top-level subcommands;
+    /// a separate enum keeps clap's generated argument tables in a frame of their own).
+    #[command(flatten)]
+    Interop(Interop),
+    /// Training, quantization, benchmarks and result pages (flattened, as above).
+    #[command(flatten)]
+    Tools(Tools),
+}
+
+#[derive(Subcommand, Debug)]
+enum Tools {
+    /// Time one localization per matcher (441 windows and dense) with operation counts.
+    BenchLocalize(cmd::bench_localize::Args),
+    /// Write docs/results.md from the reports of scripts/results.sh.
+    Results(cmd::results::Args),
     /// Train the siamese CNN matcher (float, CPU, candle).
     Train(cmd::train::Args),
     /// Quantize a trained matcher to int8 and write the core's weight file.
     Quantize(cmd::quantize::Args),
+}
+
+#[derive(Subcommand, Debug)]
+enum Interop {
+    /// Pool eval reports of several seeds into the fix's accuracy table (scripts/fix-results.sh).
+    FixReport(cmd::fix_report::Args),
     /// Write a region of the built-in world as DEM + orthoimage GeoTIFFs (GDAL, QGIS).
     ExportGeotiff(cmd::export_geotiff::Args),
     /// Print what orbfix reads from a GeoTIFF (georeference, CRS, values) as JSON.
@@ -95,23 +110,27 @@ fn run() -> anyhow::Result<()> {
         Command::Demo(a) => cmd::demo::run(a)?,
         Command::Localize(a) => cmd::localize::run(a)?,
         Command::Eval(a) => cmd::eval::run(a)?,
-        Command::FixReport(a) => cmd::fix_report::run(a)?,
         Command::Map(a) => cmd::map::run(a)?,
-        Command::BenchLocalize(a) => cmd::bench_localize::run(a)?,
-        Command::Results(a) => cmd::results::run(a)?,
         Command::Reproject(a) => cmd::reproject::run(a)?,
         Command::Elevation { seed, x, y } => {
             let world = orbfix_host::world::World::new(seed);
             println!("{:.3}", world.height_m(x, y));
         }
         Command::Budget(args) => cmd::budget::run(args)?,
-        Command::Train(a) => cmd::train::run(a)?,
-        Command::Quantize(a) => cmd::quantize::run(a)?,
-        Command::ExportGeotiff(a) => cmd::export_geotiff::run(a)?,
-        Command::GeotiffInfo(a) => cmd::geotiff_info::run(a)?,
-        Command::ExportTflite(a) => cmd::export_tflite::run(a)?,
-        Command::Embed(a) => cmd::embed::run(a)?,
-        Command::PrepareInputs(a) => cmd::prepare_inputs::run(a)?,
+        Command::Tools(t) => match t {
+            Tools::BenchLocalize(a) => cmd::bench_localize::run(a)?,
+            Tools::Results(a) => cmd::results::run(a)?,
+            Tools::Train(a) => cmd::train::run(a)?,
+            Tools::Quantize(a) => cmd::quantize::run(a)?,
+        },
+        Command::Interop(i) => match i {
+            Interop::FixReport(a) => cmd::fix_report::run(a)?,
+            Interop::ExportGeotiff(a) => cmd::export_geotiff::run(a)?,
+            Interop::GeotiffInfo(a) => cmd::geotiff_info::run(a)?,
+            Interop::ExportTflite(a) => cmd::export_tflite::run(a)?,
+            Interop::Embed(a) => cmd::embed::run(a)?,
+            Interop::PrepareInputs(a) => cmd::prepare_inputs::run(a)?,
+        },
     }
     Ok(())
 }

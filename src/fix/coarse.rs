@@ -12,6 +12,7 @@ use crate::nn::window_cosine::{
 
 /// Writes the cosine (Q15) of `embedding` against every record into `response` (row-major,
 /// one per record). Returns the number of windows scored.
+#[inline(never)]
 pub fn cosine_response(
     embedding: &[i8; EMBED_LEN],
     zp: i8,

@@ -102,7 +102,6 @@ pub fn run<C: StageClock>(
     let product = MapProduct::parse(inputs.map_product, crc_check)?;
     let meta = *product.meta();
     let sizes = fix_buffer_sizes(cfg, &meta)?;
-    let net = SiameseNet::from_bytes(inputs.weights)?;
     if meta.weights_crc != weights_crc(inputs.weights) {
         return Err(FixError::MapMismatch {
             what: "the map product's records were made with other weights",
@@ -147,13 +146,10 @@ pub fn run<C: StageClock>(
         Depth::Flat => reproject_flat(inputs, cfg, work, top, mask, clock, &mut ops)?,
         Depth::Images(depths) => {
             clock.begin(Stage::Reproject);
-            let r = reproject_range(
-                &inputs.frames,
+            let r = reproject_depth(
+                inputs,
                 &depths,
-                &inputs.params,
-                &inputs.pose,
-                &cfg.grid,
-                &cfg.range,
+                cfg,
                 work.get_mut(..n * n).ok_or(too_small("work"))?,
                 top,
                 mask,
@@ -175,26 +171,27 @@ pub fn run<C: StageClock>(
         return Ok(report);
     }
 
-    // 2. Embedding.
+    // 2. Embedding (the weights are parsed and CRC-checked inside, out of line).
     clock.begin(Stage::NnEmbed);
-    let embedded = embed(&net, top, mask, n, nn_input, nn_arena, nn_embedding);
-    let self_check_ok = match embedded {
-        Ok(()) if cfg.self_check.redundant_embed => {
-            let first = fnv1a(fnv1a_start(), &nn_embedding.map(|v| v as u8));
-            let again = embed(&net, top, mask, n, nn_input, nn_arena, nn_embedding);
-            again.is_ok() && first == fnv1a(fnv1a_start(), &nn_embedding.map(|v| v as u8))
-        }
-        _ => true,
-    };
+    let embedded = embed_stage(
+        inputs.weights,
+        top,
+        mask,
+        n,
+        nn_input,
+        nn_arena,
+        nn_embedding,
+        cfg.self_check.redundant_embed,
+    );
     clock.end(Stage::NnEmbed);
-    match embedded {
-        Ok(()) => {}
-        Err(NnError::TooFewValid | NnError::FlatInput) => {
+    let (zp, self_check_ok) = match embedded {
+        Ok(v) => v,
+        Err(FixError::Nn(NnError::TooFewValid | NnError::FlatInput)) => {
             report.ops = ops;
             return Ok(report);
         }
-        Err(e) => return Err(e.into()),
-    }
+        Err(e) => return Err(e),
+    };
     ops.embed_macs = embedding_macs() * if cfg.self_check.redundant_embed { 2 } else { 1 };
     if !self_check_ok {
         report.status = FixStatus::SelfCheckFailed;
@@ -204,7 +201,6 @@ pub fn run<C: StageClock>(
 
     // 3. Coarse response.
     clock.begin(Stage::NnMatch);
-    let zp = i8::try_from(net.embedding_zero_point()).map_err(|_| NnError::BadGeometry)?;
     let windows = coarse::cosine_response(nn_embedding, zp, product.records(), response)?;
     clock.end(Stage::NnMatch);
     ops.match_elements = (windows * EMBED_LEN) as u64;
@@ -350,6 +346,62 @@ pub fn weights_crc(weights: &[u8]) -> u32 {
     }
 }
 
+/// Stage 1 with depth (kept out of line: its frame stays its own).
+#[inline(never)]
+fn reproject_depth(
+    inputs: &FixInputs<'_>,
+    depths: &[Option<DepthView<'_>>; 4],
+    cfg: &FixConfig,
+    work: &mut [u32],
+    top: &mut [u8],
+    mask: &mut [u8],
+) -> Result<crate::reproject::RangeReport, FixError> {
+    Ok(reproject_range(
+        &inputs.frames,
+        depths,
+        &inputs.params,
+        &inputs.pose,
+        &cfg.grid,
+        &cfg.range,
+        work,
+        top,
+        mask,
+    )?)
+}
+
+/// Stage 2: parses the weights (CRC first), embeds the top-down image, and with
+/// `redundant` embeds it again (weights parsed and checked again) and compares digests.
+/// Returns the embedding's zero point and whether the self-check agreed. Out of line, so the
+/// parsed network's parameter tables stay in this frame only.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn embed_stage(
+    weights: &[u8],
+    top: &[u8],
+    mask: &[u8],
+    n: usize,
+    input: &mut [i8; crate::nn::input::INPUT_LEN],
+    arena: &mut crate::nn::model::Arena,
+    out: &mut [i8; EMBED_LEN],
+    redundant: bool,
+) -> Result<(i8, bool), FixError> {
+    let net = SiameseNet::from_bytes(weights)?;
+    let zp = i8::try_from(net.embedding_zero_point()).map_err(|_| NnError::BadGeometry)?;
+    embed(&net, top, mask, n, input, arena, out)?;
+    if !redundant {
+        return Ok((zp, true));
+    }
+    let first = fnv1a(fnv1a_start(), &out.map(|v| v as u8));
+    let again = SiameseNet::from_bytes(weights)
+        .ok()
+        .map(|net2| embed(&net2, top, mask, n, input, arena, out).is_ok())
+        .unwrap_or(false);
+    Ok((
+        zp,
+        again && first == fnv1a(fnv1a_start(), &out.map(|v| v as u8)),
+    ))
+}
+
 fn embed(
     net: &SiameseNet<'_>,
     top: &[u8],
@@ -365,6 +417,7 @@ fn embed(
 
 /// Stage 1 on flat ground: the table built band by band in `work` (cells, then overlap
 /// taps), each band sampled into its rows of `top` and `mask`.
+#[inline(never)]
 fn reproject_flat<C: StageClock>(
     inputs: &FixInputs<'_>,
     cfg: &FixConfig,

@@ -64,6 +64,7 @@ fn view_mut(buf: &mut [u8], w: usize, h: usize) -> Result<ImageViewMut<'_>, FixE
 /// Builds the templates: high-pass of `top` under `mask` into the phase area, then both
 /// levels' block averages into `persist`. `hp` is the high-pass scratch.
 #[allow(clippy::too_many_arguments)]
+#[inline(never)]
 pub fn build_templates<'b>(
     cfg: &FixConfig,
     layout: &RefineLayout,
@@ -151,6 +152,7 @@ fn score_level(
 
 /// Refines the coarse window whose top-left is map pixel `(wx, wy)`.
 #[allow(clippy::too_many_arguments)]
+#[inline(never)]
 pub fn refine_window(
     cfg: &FixConfig,
     layout: &RefineLayout,
