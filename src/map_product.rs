@@ -1,16 +1,18 @@
 //! The map product (`.ofm`, "orbfix map"): the one file the rover carries for a region, made
 //! on the ground by `orbfix map` and validated here before any use.
 //!
-//! It holds the orbital map pixels (north-up, u8), their georeference, and the CNN records
-//! of the map windows ([`crate::nn::window_cosine`]: 50 m windows on a grid, each an int8
-//! embedding with its sums), with the settings they were made with and a CRC-32 trailer.
+//! It holds the orbital map pixels (north-up, u8), their georeference, the refinement plane
+//! (the map high-passed and rectified as the fix's refinement needs it, made once on the
+//! ground instead of around every candidate on board: [`write_refine_plane`]), and the CNN
+//! records of the map windows ([`crate::nn::window_cosine`]: 50 m windows on a grid, each an
+//! int8 embedding with its sums), with the settings they were made with and a CRC-32 trailer.
 //!
 //! Layout (little-endian; `docs/map-format.md`):
 //!
 //! | offset | bytes | field |
 //! |---:|---:|---|
 //! | 0 | 4 | magic `OFM1` |
-//! | 4 | 2 | version (1) |
+//! | 4 | 2 | version (2) |
 //! | 6 | 2 | reserved, 0 |
 //! | 8 | 4 | header bytes ([`HEADER_BYTES`] = 64) |
 //! | 12 | 4 | map width, pixels |
@@ -25,8 +27,11 @@
 //! | 48 | 4 | CRC-32 of the weight file the records were computed with |
 //! | 52 | 4 | `f32` sun elevation of the orbital image, degrees (NaN: unknown) |
 //! | 56 | 4 | `f32` sun azimuth of the orbital image, degrees clockwise from north (NaN: unknown) |
-//! | 60 | 4 | reserved, 0 |
+//! | 60 | 2 | refinement plane: high-pass box radius, pixels (1-1024) |
+//! | 62 | 1 | refinement plane: 1 rectified (`2 abs(v - 128)`), 0 signed |
+//! | 63 | 1 | reserved, 0 |
 //! | 64 | w h | map pixels, row-major, row 0 north |
+//! | 64 + w h | w h | refinement plane, row-major ([`write_refine_plane`]) |
 //! | | 0-3 | zero padding to a multiple of 4 |
 //! | | cols rows 2056 | window records, row-major over the grid (top-left of window `(c, r)` at map pixel `(c step, r step)`) |
 //! | end - 4 | 4 | CRC-32 (IEEE) of every preceding byte |
@@ -35,7 +40,8 @@
 //! whatever its damaged header claims), then every field and that the sizes agree.
 
 use crate::geo::GeoRef;
-use crate::image::ImageView;
+use crate::image::{ImageView, ImageViewMut};
+use crate::matcher::prep::{highpass, highpass_buffer_len, rectify};
 use crate::nn::input::{prepare_input, INPUT_LEN};
 use crate::nn::model::{Arena, SiameseNet, EMBED_LEN};
 use crate::nn::weights::crc32;
@@ -46,11 +52,13 @@ use core::fmt;
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"OFM1";
 /// Format version this core reads.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 /// Bytes of the header.
 pub const HEADER_BYTES: usize = 64;
 /// Largest map side the core accepts, pixels (16,384 px: 4.1 km at 0.25 m/px).
 pub const MAX_SIDE_PX: usize = 16_384;
+/// Largest high-pass radius of the refinement plane, pixels.
+pub const MAX_PLANE_RADIUS_PX: usize = 1024;
 /// Largest distance of the map origin from the world origin, metres (10,000 km: more than
 /// any planetary radius the rover could work on).
 pub const MAX_ORIGIN_M: f32 = 1.0e7;
@@ -127,6 +135,42 @@ impl fmt::Display for MapProductError {
 
 impl core::error::Error for MapProductError {}
 
+/// How the refinement plane of a map product was made: the box radius and the rectification
+/// of the high-pass ([`crate::matcher::prep`]). The fix refuses a product whose plane was
+/// made with other settings than its own (`FixConfig::refine_plane`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RefinePlane {
+    radius_px: u16,
+    rectify: bool,
+}
+
+impl RefinePlane {
+    /// A plane with box radius `radius_px` pixels (1 to [`MAX_PLANE_RADIUS_PX`]), rectified
+    /// or signed.
+    pub fn new(radius_px: usize, rectify: bool) -> Result<Self, MapProductError> {
+        if !(1..=MAX_PLANE_RADIUS_PX).contains(&radius_px) {
+            return Err(MapProductError::BadField {
+                field: "refinement plane radius",
+            });
+        }
+        Ok(Self {
+            radius_px: radius_px as u16,
+            rectify,
+        })
+    }
+
+    /// Box radius of the high-pass, map pixels.
+    pub fn radius_px(&self) -> usize {
+        self.radius_px as usize
+    }
+
+    /// Whether the high-pass is rectified.
+    pub fn rectify(&self) -> bool {
+        self.rectify
+    }
+}
+
 /// What a map product describes besides its pixels and records.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -145,6 +189,8 @@ pub struct MapProductMeta {
     pub weights_crc: u32,
     /// Sun of the orbital image `(elevation, azimuth)`, degrees, if known.
     pub sun_deg: Option<(f32, f32)>,
+    /// How the refinement plane was made.
+    pub plane: RefinePlane,
 }
 
 /// Offsets and sizes of a map product's parts.
@@ -157,6 +203,8 @@ pub struct MapProductLayout {
     pub rows: usize,
     /// Offset of the pixels (= [`HEADER_BYTES`]).
     pub pixels_at: usize,
+    /// Offset of the refinement plane (right after the pixels).
+    pub plane_at: usize,
     /// Offset of the first window record (4-byte aligned).
     pub records_at: usize,
     /// Bytes of the whole file, CRC included.
@@ -189,7 +237,8 @@ impl MapProductLayout {
         // Sides are at most 2^14, so these products stay far below usize::MAX even on
         // 32-bit targets (2^28 pixels, 2^28 windows x 2056 bytes would not: checked).
         let pixels = width * height;
-        let records_at = (HEADER_BYTES + pixels).next_multiple_of(4);
+        let plane_at = HEADER_BYTES + pixels;
+        let records_at = (plane_at + pixels).next_multiple_of(4);
         let records = (cols * rows)
             .checked_mul(WINDOW_RECORD_BYTES)
             .ok_or(bad("window grid"))?;
@@ -201,6 +250,7 @@ impl MapProductLayout {
             cols,
             rows,
             pixels_at: HEADER_BYTES,
+            plane_at,
             records_at,
             total,
         })
@@ -218,6 +268,7 @@ pub struct MapProduct<'a> {
     meta: MapProductMeta,
     layout: MapProductLayout,
     map: ImageView<'a>,
+    plane: ImageView<'a>,
     records: &'a [u8],
 }
 
@@ -302,6 +353,11 @@ impl<'a> MapProduct<'a> {
                 got: bytes.len(),
             });
         }
+        if bytes.get(62).is_some_and(|&r| r > 1) || bytes.get(63) != Some(&0) {
+            return Err(bad("refinement plane rectification"));
+        }
+        let plane_settings =
+            RefinePlane::new(u16_at(bytes, 60) as usize, bytes.get(62) == Some(&1))?;
         let (el, az) = (f32_at(bytes, 52), f32_at(bytes, 56));
         let sun_deg = if el.is_finite() && az.is_finite() {
             if !(-90.0..=90.0).contains(&el) {
@@ -317,6 +373,12 @@ impl<'a> MapProduct<'a> {
                 expected: layout.total,
                 got: bytes.len(),
             })?;
+        let plane_px = bytes
+            .get(layout.plane_at..layout.plane_at + width * height)
+            .ok_or(MapProductError::LengthMismatch {
+                expected: layout.total,
+                got: bytes.len(),
+            })?;
         let records = bytes.get(layout.records_at..layout.total - 4).ok_or(
             MapProductError::LengthMismatch {
                 expected: layout.total,
@@ -324,6 +386,7 @@ impl<'a> MapProduct<'a> {
             },
         )?;
         let map = ImageView::new(pixels, width, height).map_err(|_| bad("width"))?;
+        let plane = ImageView::new(plane_px, width, height).map_err(|_| bad("width"))?;
         Ok(Self {
             meta: MapProductMeta {
                 geo,
@@ -333,9 +396,11 @@ impl<'a> MapProduct<'a> {
                 step_px,
                 weights_crc: u32_at(bytes, 48),
                 sun_deg,
+                plane: plane_settings,
             },
             layout,
             map,
+            plane,
             records,
         })
     }
@@ -353,6 +418,12 @@ impl<'a> MapProduct<'a> {
     /// The map pixels as an image.
     pub fn map(&self) -> ImageView<'a> {
         self.map
+    }
+
+    /// The refinement plane (the map high-passed as [`MapProductMeta::plane`] says), an
+    /// image of the map's size.
+    pub fn plane(&self) -> ImageView<'a> {
+        self.plane
     }
 
     /// All window records, row-major over the grid.
@@ -380,6 +451,7 @@ pub fn write_header(
         })?;
     head.fill(0);
     let (el, az) = meta.sun_deg.unwrap_or((f32::NAN, f32::NAN));
+    let plane = u32::from(meta.plane.radius_px) | (u32::from(meta.plane.rectify) << 16);
     let words: [(usize, u32); 14] = [
         (8, HEADER_BYTES as u32),
         (12, meta.width as u32),
@@ -394,7 +466,7 @@ pub fn write_header(
         (48, meta.weights_crc),
         (52, el.to_bits()),
         (56, az.to_bits()),
-        (60, 0),
+        (60, plane),
     ];
     if let Some(m) = head.get_mut(..4) {
         m.copy_from_slice(&MAGIC);
@@ -419,6 +491,40 @@ pub fn seal(out: &mut [u8]) -> Result<(), MapProductError> {
     let c = crc32(out.get(..n - 4).unwrap_or_default());
     if let Some(t) = out.get_mut(n - 4..) {
         t.copy_from_slice(&c.to_le_bytes());
+    }
+    Ok(())
+}
+
+/// Scratch `u32` elements [`write_refine_plane`] needs for a map `width` pixels wide.
+pub const fn refine_plane_buffer_len(width: usize) -> usize {
+    highpass_buffer_len(width)
+}
+
+/// Writes the refinement plane of `map` into `out` (`width * height` bytes, the product's
+/// bytes at `layout.plane_at`): the high-pass of [`crate::matcher::prep::highpass`] with
+/// `plane`'s radius, rectified if it says so. Done on the ground; inside the region the fix
+/// refines on, every box is whole, so the plane equals the high-pass of that region alone.
+/// `scratch`: at least [`refine_plane_buffer_len`] elements.
+pub fn write_refine_plane(
+    map: &ImageView<'_>,
+    plane: RefinePlane,
+    out: &mut [u8],
+    scratch: &mut [u32],
+) -> Result<(), MapProductError> {
+    let (w, h) = (map.width(), map.height());
+    let needed = w * h;
+    let dst = out
+        .get_mut(..needed)
+        .ok_or(MapProductError::BufferTooSmall { needed })?;
+    let mut view =
+        ImageViewMut::new(dst, w, h).map_err(|_| MapProductError::BufferTooSmall { needed })?;
+    highpass(map, None, plane.radius_px(), &mut view, scratch).map_err(|_| {
+        MapProductError::BufferTooSmall {
+            needed: refine_plane_buffer_len(w),
+        }
+    })?;
+    if plane.rectify() {
+        rectify(&mut view);
     }
     Ok(())
 }
@@ -482,6 +588,7 @@ mod tests {
             step_px: step,
             weights_crc: 0xdead_beef,
             sun_deg: Some((30.0, 135.0)),
+            plane: RefinePlane::new(8, true).unwrap(),
         };
         let l = write_header(&meta, buf).unwrap();
         for (i, p) in buf[l.pixels_at..l.pixels_at + w * h].iter_mut().enumerate() {
@@ -494,7 +601,8 @@ mod tests {
     #[test]
     fn round_trip_and_every_damage_is_caught() {
         let mut buf = [0u8; 4096];
-        // A 9 x 9 map with one 9 px window: header, 81 pixels, 3 padding, one record, CRC.
+        // A 9 x 9 map with one 9 px window: header, 81 pixels, 81 plane, 2 padding, one
+        // record, CRC.
         let l = MapProductLayout::new(9, 9, 9, 1).unwrap();
         assert_eq!((l.cols, l.rows), (1, 1));
         let total = build(&mut buf, 9, 9, 9, 1);
@@ -503,6 +611,8 @@ mod tests {
         assert_eq!(p.meta().width, 9);
         assert_eq!(p.meta().sun_deg, Some((30.0, 135.0)));
         assert_eq!(p.meta().weights_crc, 0xdead_beef);
+        assert_eq!(p.meta().plane, RefinePlane::new(8, true).unwrap());
+        assert_eq!((p.plane().width(), p.plane().height()), (9, 9));
         assert_eq!(p.records().len(), WINDOW_RECORD_BYTES);
         assert_eq!(p.map().get(3, 1), Some(12));
         // Every single-bit flip is caught (by the CRC).
@@ -522,6 +632,20 @@ mod tests {
             MapProduct::parse(&buf[..10], CrcCheck::Verify),
             Err(MapProductError::Truncated { got: 10 })
         ));
+        // A plane radius of 0 or a rectification flag of 2, with a valid CRC, is refused.
+        buf[60] = 0;
+        seal(&mut buf[..total]).unwrap();
+        assert_eq!(
+            MapProduct::parse(&buf[..total], CrcCheck::Verify).unwrap_err(),
+            MapProductError::BadField {
+                field: "refinement plane radius"
+            }
+        );
+        buf[60] = 8;
+        buf[62] = 2;
+        seal(&mut buf[..total]).unwrap();
+        assert!(MapProduct::parse(&buf[..total], CrcCheck::Verify).is_err());
+        buf[62] = 1;
         // A header lie with a valid CRC is caught by the structure checks.
         buf[40] = 7;
         seal(&mut buf[..total]).unwrap();

@@ -49,6 +49,7 @@ fn product() -> Vec<u8> {
             window_px: 80,
             step_px: 16,
             sun_deg: None,
+            ..MapProductOptions::default()
         },
     )
     .unwrap()

@@ -3,6 +3,7 @@
 
 use super::FixError;
 use crate::localize::MAX_CANDIDATES;
+use crate::map_product::RefinePlane;
 use crate::reproject::{GridSpec, RangeOptions};
 
 /// How the position inside the best coarse cells is found.
@@ -197,6 +198,16 @@ impl FixConfig {
     pub fn refine_margin_px(&self) -> usize {
         let [a, b] = self.refine.levels;
         a.reach_px * a.factor + b.reach_px * b.factor + a.factor + self.highpass_radius_px()
+    }
+
+    /// The refinement plane a map product must carry for this configuration (the high-pass
+    /// radius and rectification of the refinement).
+    pub fn refine_plane(&self) -> Result<RefinePlane, FixError> {
+        RefinePlane::new(self.highpass_radius_px(), self.refine.rectify).map_err(|_| {
+            FixError::BadConfig {
+                field: "refine.highpass_m",
+            }
+        })
     }
 
     /// Box radius of the high-pass, top-down pixels (at least 1).

@@ -114,6 +114,7 @@ pub fn run<C: StageClock>(
         });
     }
     let map = product.map();
+    let plane = product.plane();
     let (pc, pr) = meta.geo.to_pixel(inputs.pose.x_m, inputs.pose.y_m);
     if !(pc >= 0.0 && pr >= 0.0 && pc < map.width() as f32 && pr < map.height() as f32) {
         return Err(FixError::PriorOutsideMap);
@@ -265,9 +266,8 @@ pub fn run<C: StageClock>(
                         cfg,
                         &rl,
                         &t,
-                        &map,
+                        &plane,
                         w,
-                        hp,
                         phase,
                         refine_floats,
                         &mut refine_ops,

@@ -2,8 +2,8 @@
 //! around a coarse (CNN) window, in two levels, with a sub-pixel peak.
 //!
 //! Both images are high-passed at full resolution with the same box radius
-//! ([`crate::matcher::prep::highpass`]: the top-down image under its mask, the map region
-//! with a margin so that every box is whole), then block-averaged to the level's factor
+//! ([`crate::matcher::prep::highpass`]: the top-down image under its mask here, the map on
+//! the ground, as the map product's refinement plane), then block-averaged to the level's factor
 //! ([`crate::localize::downsample_weighted`], [`crate::localize::downsample_mean`]). The
 //! first level scores every level pixel within its reach of the CNN window, the second
 //! every level pixel within its reach of the first level's best, and the parabola vertex
@@ -14,20 +14,9 @@ use super::{FixConfig, FixError};
 use crate::image::{ImageView, ImageViewMut};
 use crate::localize::{downsample_mean, downsample_weighted};
 use crate::matcher::ncc::Ncc;
-use crate::matcher::prep::highpass;
+use crate::matcher::prep::{highpass, rectify};
 use crate::matcher::{Matcher, OpCounts};
 use crate::peak::peak_offset_2d;
-
-/// Rectifies a high-passed image in place: `min(255, 2 |v - 128|)`.
-fn rectify(img: &mut ImageViewMut<'_>) {
-    for y in 0..img.height() {
-        if let Some(row) = img.row_mut(y) {
-            for v in row.iter_mut() {
-                *v = (2 * (*v as i32 - 128).unsigned_abs()).min(255) as u8;
-            }
-        }
-    }
-}
 
 /// The result of refining one coarse window.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,37 +139,33 @@ fn score_level(
     Ok((bi, bs))
 }
 
-/// Refines the coarse window whose top-left is map pixel `(wx, wy)`.
+/// Refines the coarse window whose top-left is map pixel `(wx, wy)` on the map product's
+/// refinement plane `plane` (the map high-passed on the ground with this configuration's
+/// settings: [`crate::map_product::write_refine_plane`]). The searched positions keep the
+/// template inside the region of `layout.region_w x layout.region_h` pixels around the
+/// window (clipped to the map), where every high-pass box of the plane is whole.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 pub fn refine_window(
     cfg: &FixConfig,
     layout: &RefineLayout,
     templates: &Templates<'_>,
-    map: &ImageView<'_>,
+    plane: &ImageView<'_>,
     (wx, wy): (usize, usize),
-    hp: &mut [u32],
     phase: &mut [u8],
     floats: &mut [f32],
     ops: &mut OpCounts,
 ) -> Result<Refined, FixError> {
     let n = cfg.grid.n;
     let [l0, l1] = cfg.refine.levels;
-    let (mw, mh) = (map.width(), map.height());
+    let (mw, mh) = (plane.width(), plane.height());
     let margin = cfg.refine_margin_px();
     let (rw, rh) = (layout.region_w, layout.region_h);
     let rx = wx.saturating_sub(margin).min(mw - rw);
     let ry = wy.saturating_sub(margin).min(mh - rh);
-    let region = map
+    let region_hp = plane
         .sub(rx, ry, rw, rh)
         .ok_or(FixError::ScratchTooSmall { buffer: "work" })?;
-    let (region_buf, rest) = split_image(phase, rw, rh)?;
-    let mut region_hp = view_mut(region_buf, rw, rh)?;
-    highpass(&region, None, cfg.highpass_radius_px(), &mut region_hp, hp)?;
-    if cfg.refine.rectify {
-        rectify(&mut region_hp);
-    }
-    let region_hp = region_hp.as_view();
     // Template top-left positions that keep the template inside the region.
     let (lo_x, hi_x) = (rx, rx + rw - n);
     let (lo_y, hi_y) = (ry, ry + rh - n);
@@ -189,7 +174,7 @@ pub fn refine_window(
     let (f0, f1) = (l0.factor, l1.factor);
     let (x0, c0) = axis_range(wx.max(lo_x).min(hi_x), l0.reach_px, f0, lo_x, hi_x);
     let (y0, r0) = axis_range(wy.max(lo_y).min(hi_y), l0.reach_px, f0, lo_y, hi_y);
-    let patch_buf = rest;
+    let patch_buf = phase;
     let (bi, _) = score_level(
         &templates.t0,
         &templates.w0,

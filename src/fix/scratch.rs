@@ -46,7 +46,7 @@ pub struct RefineLayout {
     pub a: usize,
     /// Side of the fine-level template (`n / factor1`), pixels.
     pub b: usize,
-    /// Side of the high-passed map region, pixels (clipped to the map).
+    /// Side of the map region a peak's search stays in, pixels (clipped to the map).
     pub region_w: usize,
     /// Height of the region, pixels.
     pub region_h: usize,
@@ -67,7 +67,7 @@ impl RefineLayout {
         let a = n / l0.factor.max(1);
         let b = n / l1.factor.max(1);
         Self {
-            hp_words: highpass_buffer_len(n.max(region_w)),
+            hp_words: highpass_buffer_len(n),
             a,
             b,
             region_w,
@@ -87,9 +87,10 @@ impl RefineLayout {
         n * n
     }
 
-    /// Bytes of the per-peak phase (high-passed region and both patches).
+    /// Bytes of the per-peak phase (the larger of the two levels' map patches; the
+    /// high-passed map comes from the map product's refinement plane).
     pub fn peak_phase_bytes(&self) -> usize {
-        self.region_w * self.region_h + self.patch0 * self.patch0 + self.patch1 * self.patch1
+        (self.patch0 * self.patch0).max(self.patch1 * self.patch1)
     }
 
     /// Work words the refinement needs.
@@ -110,6 +111,11 @@ pub fn fix_buffer_sizes(
     if meta.window_px != n {
         return Err(FixError::MapMismatch {
             what: "window side differs from the top-down grid",
+        });
+    }
+    if meta.plane != cfg.refine_plane()? {
+        return Err(FixError::MapMismatch {
+            what: "its refinement plane was made with another high-pass radius or rectification",
         });
     }
     let cols = (meta.width - n) / meta.step_px.max(1) + 1;

@@ -564,6 +564,53 @@ mod tests {
     }
 
     #[test]
+    fn general_dense_path_with_holes_equals_per_window_scores_to_the_bit() {
+        let mut seed = 777u32;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 24) as u8
+        };
+        // 40 x 30 = 1200 px: beyond the fast path, so the general path runs.
+        let (tw, th, rw, rh) = (40usize, 30usize, 52usize, 37usize);
+        let t: [u8; 1200] = core::array::from_fn(|_| rnd());
+        // A top-down-like weight: a hole disc in the middle, no data outside a disc, partial
+        // weights at the edges, and a row of many short runs.
+        let w: [u8; 1200] = core::array::from_fn(|i| {
+            let (x, y) = ((i % tw) as i32 - 20, (i / tw) as i32 - 15);
+            let d2 = x * x + y * y;
+            if y == 3 {
+                return if x % 3 == 0 { 0 } else { 200 };
+            }
+            match d2 {
+                0..=12 => 0,
+                13..=20 => 90,
+                21..=300 => 255,
+                _ => 0,
+            }
+        });
+        let m: [u8; 52 * 37] = core::array::from_fn(|_| rnd());
+        let (tv, wv, mv) = (
+            ImageView::new(&t, tw, th).unwrap(),
+            ImageView::new(&w, tw, th).unwrap(),
+            ImageView::new(&m, rw, rh).unwrap(),
+        );
+        let mut out = [0f32; 13 * 8];
+        let mut ops = OpCounts::default();
+        let g = Ncc::default()
+            .dense(&tv, &wv, &mv, 1, &mut out, &mut ops)
+            .unwrap();
+        assert_eq!((g.cols, g.rows), (13, 8));
+        for r in 0..g.rows {
+            for c in 0..g.cols {
+                let win = mv.sub(c, r, tw, th).unwrap();
+                let mut o = OpCounts::default();
+                let s = Ncc::default().score(&tv, &wv, &win, &mut o).unwrap();
+                assert_eq!(out[r * g.cols + c].to_bits(), s.to_bits(), "({c}, {r})");
+            }
+        }
+    }
+
+    #[test]
     fn fast_dense_path_equals_per_window_scores_to_the_bit() {
         let mut seed = 12345u32;
         let mut rnd = move || {

@@ -15,6 +15,18 @@ pub const fn highpass_buffer_len(width: usize) -> usize {
     2 * width
 }
 
+/// Rectifies a high-passed image in place, `min(255, 2 |v - 128|)`: edge strength instead of
+/// signed contrast, which survives a change of sun azimuth (shadows flip sides, edges stay).
+pub fn rectify(img: &mut ImageViewMut<'_>) {
+    for y in 0..img.height() {
+        if let Some(row) = img.row_mut(y) {
+            for v in row.iter_mut() {
+                *v = (2 * (*v as i32 - 128).unsigned_abs()).min(255) as u8;
+            }
+        }
+    }
+}
+
 /// Masked high-pass of `src` into `out` with box radius `radius` pixels (see the module
 /// doc). `mask`: `None` = all valid. `scratch`: at least [`highpass_buffer_len`] elements.
 ///

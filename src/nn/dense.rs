@@ -23,6 +23,10 @@ pub const fn dense_macs(rows: usize, in_f: usize, out_f: usize) -> u64 {
     (rows * in_f * out_f) as u64
 }
 
+/// Widest input of the Armv7E-M DSP path of [`dense_s8`] (wider runs the portable loop).
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+const DSP_MAX_IN: usize = 256;
+
 /// `output[r][o] = requant(bias[o] + sum_i (input[r][i] + input_offset) * weights[o][i])`.
 ///
 /// `input`: `rows x in_f` int8; `weights`: `out_f x in_f` int8 symmetric; `bias`,
@@ -66,6 +70,27 @@ pub fn dense_s8(
             return Err(NnError::BufferSize);
         };
         rows_in = r;
+        #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+        if in_f <= DSP_MAX_IN {
+            // The convolution's DSP path on a 1 x 1 receptive field (512 B on the stack).
+            let mut col = [0i16; DSP_MAX_IN];
+            let col = col.get_mut(..in_f).ok_or(NnError::BufferSize)?;
+            for (d, &a) in col.iter_mut().zip(row) {
+                *d = (a as i32 + p.input_offset) as i16;
+            }
+            super::conv::channels_dsp(
+                p.output_offset,
+                (p.act_min, p.act_max),
+                col,
+                weights,
+                bias,
+                multiplier,
+                shift,
+                out_f,
+                &mut outs,
+            )?;
+            continue;
+        }
         let mut rest = weights;
         for ((&b, &m), &sh) in bias.iter().zip(multiplier).zip(shift).take(out_f) {
             let (Some((w, r)), Some(y)) = (rest.split_at_checked(in_f), outs.next()) else {

@@ -13,10 +13,14 @@
 //! - [`weights`]: `.ofw` weight file parsing with CRC-32 validation;
 //! - [`model`]: the shipped network, its arena, cosine scoring;
 //! - [`matcher`]: the network behind the localization engine's `Matcher` trait;
-//! - [`window_cosine`]: the flight path's cosine against stored map-window records.
+//! - [`window_cosine`]: the flight path's cosine against stored map-window records;
+//! - `dsp` (Arm with the `armv7em-dsp` feature only): the SXTB16 / SMLAD helpers of the
+//!   kernels' DSP paths.
 
 pub mod conv;
 pub mod dense;
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+mod dsp;
 pub mod input;
 pub mod matcher;
 pub mod model;

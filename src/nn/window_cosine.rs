@@ -291,6 +291,7 @@ fn dot_i8<const K: usize>(a: &[u8; EMBED_LEN], bs: [&[u8; EMBED_LEN]; K]) -> [i3
 #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
 #[inline(always)]
 fn dot_i8_dsp<const K: usize>(a: &[u8; EMBED_LEN], bs: [&[u8; EMBED_LEN]; K]) -> [i32; K] {
+    use super::dsp::{smlad_pair, sxtb16_pair};
     let mut s = [0i32; K];
     let mut off = 0;
     while off + 4 <= EMBED_LEN {
@@ -301,52 +302,6 @@ fn dot_i8_dsp<const K: usize>(a: &[u8; EMBED_LEN], bs: [&[u8; EMBED_LEN]; K]) ->
         off += 4;
     }
     s
-}
-
-/// `(SXTB16 x, SXTB16 (x ROR 8))`: int8 lanes 0, 2 and 1, 3 of `x` as int16 pairs.
-#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-#[inline(always)]
-fn sxtb16_pair(x: u32) -> (u32, u32) {
-    let (e, o): (u32, u32);
-    // Safety: register-only Armv7E-M DSP instructions (this function only exists with the
-    // `armv7em-dsp` feature, for Cortex-M4/M7 targets); no memory, no stack, no flags.
-    unsafe {
-        core::arch::asm!(
-            "sxtb16 {e}, {x}",
-            "sxtb16 {o}, {x}, ror #8",
-            x = in(reg) x,
-            e = out(reg) e,
-            o = out(reg) o,
-            options(pure, nomem, nostack, preserves_flags),
-        );
-    }
-    (e, o)
-}
-
-/// `acc + x . y` over four int8 lanes, with `x` already split by [`sxtb16_pair`] into
-/// `xe`, `xo`: `SXTB16` and `SMLAD` twice.
-#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-#[inline(always)]
-fn smlad_pair(acc: i32, xe: u32, xo: u32, y: u32) -> i32 {
-    let out: i32;
-    // Safety: register-only Armv7E-M DSP instructions (`armv7em-dsp` feature only); no
-    // memory, no stack; SMLAD only sets the sticky Q bit on overflow, which the bound on
-    // `dot_i8` rules out and nothing reads.
-    unsafe {
-        core::arch::asm!(
-            "sxtb16 {t}, {y}",
-            "smlad {acc}, {xe}, {t}, {acc}",
-            "sxtb16 {t}, {y}, ror #8",
-            "smlad {acc}, {xo}, {t}, {acc}",
-            acc = inout(reg) acc => out,
-            xe = in(reg) xe,
-            xo = in(reg) xo,
-            y = in(reg) y,
-            t = out(reg) _,
-            options(pure, nomem, nostack),
-        );
-    }
-    out
 }
 
 /// The rover's embedding as its two's-complement bytes.

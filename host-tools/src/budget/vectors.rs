@@ -59,14 +59,18 @@ impl Vectors {
             q.sun_map,
             &opts.render,
         )?;
+        // The firmware's configuration: the default fix on this grid (firmware/src/main.rs).
+        let fix_cfg = orbfix::fix::FixConfig {
+            grid: opts.grid,
+            ..orbfix::fix::FixConfig::default()
+        };
         let product = build_map_product(
             &map,
             weights,
-            &MapProductOptions {
-                window_px: opts.grid.n,
-                sun_deg: Some((q.sun_map.elevation_deg as f32, q.sun_map.azimuth_deg as f32)),
-                ..MapProductOptions::default()
-            },
+            &MapProductOptions::for_fix(
+                &fix_cfg,
+                Some((q.sun_map.elevation_deg as f32, q.sun_map.azimuth_deg as f32)),
+            )?,
         )?;
         let windows = MapProduct::parse(&product, CrcCheck::Verify)
             .map_err(|e| anyhow::anyhow!("{e}"))?

@@ -128,14 +128,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 let product = build_map_product(
                     &map,
                     &weights,
-                    &MapProductOptions {
-                        window_px: opts.grid.n,
-                        sun_deg: Some((
-                            q.sun_map.elevation_deg as f32,
-                            q.sun_map.azimuth_deg as f32,
-                        )),
-                        ..MapProductOptions::default()
-                    },
+                    &MapProductOptions::for_fix(
+                        &cfg,
+                        Some((q.sun_map.elevation_deg as f32, q.sun_map.azimuth_deg as f32)),
+                    )?,
                 )?;
                 let runner = FixRunner {
                     weights: weights.clone(),

@@ -233,20 +233,22 @@ fn run_query(
             break (c, r);
         }
     };
-    let product = if cfg.matchers.iter().any(|m| fix_config_by_name(m).is_some()) {
-        let opts = MapProductOptions {
-            window_px: cfg.pipeline.grid.n,
-            sun_deg: Some((q.sun_map.elevation_deg as f32, q.sun_map.azimuth_deg as f32)),
-            ..MapProductOptions::default()
-        };
-        Some(build_map_product(&map, &cfg.weights, &opts)?)
-    } else {
-        None
-    };
+    // One map product per refinement plane the fix matchers need (`fix-signed` has its own).
+    let sun_deg = Some((q.sun_map.elevation_deg as f32, q.sun_map.azimuth_deg as f32));
+    let mut products: Vec<(orbfix::map_product::RefinePlane, Vec<u8>)> = Vec::new();
     for name in &cfg.matchers {
-        if let (Some(mut fcfg), Some(product)) = (fix_config_by_name(name), product.as_deref()) {
+        if let Some(mut fcfg) = fix_config_by_name(name) {
             fcfg.grid = cfg.pipeline.grid;
             fcfg.range = cfg.pipeline.range;
+            let opts = MapProductOptions::for_fix(&fcfg, sun_deg)?;
+            let at = match products.iter().position(|(p, _)| *p == opts.plane) {
+                Some(i) => i,
+                None => {
+                    products.push((opts.plane, build_map_product(&map, &cfg.weights, &opts)?));
+                    products.len() - 1
+                }
+            };
+            let product = products[at].1.as_slice();
             let runner = FixRunner {
                 weights: cfg.weights.clone(),
                 cfg: fcfg,

@@ -3,7 +3,8 @@
 
 use crate::eval::MapRegion;
 use anyhow::Context;
-use orbfix::map_product::{self, MapProductLayout, MapProductMeta};
+use orbfix::fix::FixConfig;
+use orbfix::map_product::{self, MapProductLayout, MapProductMeta, RefinePlane};
 use orbfix::nn::input::INPUT_LEN;
 use orbfix::nn::model::{Arena, SiameseNet};
 use orbfix::nn::window_cosine::WINDOW_RECORD_BYTES;
@@ -18,6 +19,21 @@ pub struct MapProductOptions {
     pub step_px: usize,
     /// Sun of the orbital image `(elevation, azimuth)`, degrees, if known.
     pub sun_deg: Option<(f32, f32)>,
+    /// The refinement plane's high-pass: the fix's own (`FixConfig::refine_plane`), or the
+    /// fix refuses the product.
+    pub plane: RefinePlane,
+}
+
+impl MapProductOptions {
+    /// The options a fix with `cfg` needs: its window side and refinement plane.
+    pub fn for_fix(cfg: &FixConfig, sun_deg: Option<(f32, f32)>) -> anyhow::Result<Self> {
+        Ok(Self {
+            window_px: cfg.grid.n,
+            sun_deg,
+            plane: cfg.refine_plane().map_err(|e| anyhow::anyhow!("{e}"))?,
+            ..Self::default()
+        })
+    }
 }
 
 impl Default for MapProductOptions {
@@ -26,6 +42,10 @@ impl Default for MapProductOptions {
             window_px: orbfix::reproject::DEFAULT_N,
             step_px: 16,
             sun_deg: None,
+            // The default configuration's plane is valid by construction (2 m at 0.25 m/px).
+            plane: FixConfig::default()
+                .refine_plane()
+                .unwrap_or_else(|_| unreachable!("the default FixConfig is valid")),
         }
     }
 }
@@ -46,6 +66,7 @@ pub fn build_map_product(
         step_px: opts.step_px,
         weights_crc: orbfix::fix::weights_crc(weights),
         sun_deg: opts.sun_deg,
+        plane: opts.plane,
     };
     let layout = MapProductLayout::new(map.width, map.height, opts.window_px, opts.step_px)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -53,6 +74,14 @@ pub fn build_map_product(
     map_product::write_header(&meta, &mut out).map_err(|e| anyhow::anyhow!("{e}"))?;
     out[layout.pixels_at..layout.pixels_at + map.width * map.height].copy_from_slice(&map.image);
     let view = map.view()?;
+    let mut hp = vec![0u32; map_product::refine_plane_buffer_len(map.width)];
+    map_product::write_refine_plane(
+        &view,
+        opts.plane,
+        &mut out[layout.plane_at..layout.plane_at + map.width * map.height],
+        &mut hp,
+    )
+    .map_err(|e| anyhow::anyhow!("the map product's refinement plane: {e}"))?;
     let row_bytes = layout.cols * WINDOW_RECORD_BYTES;
     let records = &mut out[layout.records_at..layout.total - 4];
     records
