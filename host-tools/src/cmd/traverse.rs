@@ -21,7 +21,7 @@ pub struct Args {
     #[arg(long, default_value_t = 26)]
     pub stops: usize,
     /// JSON report (per stop and summary); rewritten after every stop, and a run with the
-    /// same settings resumes from it.
+    /// same settings (or more stops) resumes from it.
     #[arg(long, default_value = "out/traverse/traverse.json")]
     pub json: PathBuf,
     /// Folder for the figures (path.svg, error.svg) and the per-stop table (table.md).
@@ -37,8 +37,9 @@ pub struct Args {
     #[arg(long, default_value_t = 0.5)]
     pub heading_sigma_deg: f64,
     /// Heading search step, degrees (the search runs when the heading sigma exceeds
-    /// --heading-tolerance-deg and covers +-2 sigma, at most 9 headings).
-    #[arg(long, default_value_t = 1.0)]
+    /// --heading-tolerance-deg and covers +-2 sigma, at most 9 headings; 2 deg chosen by
+    /// measurement, docs/traverse.md).
+    #[arg(long, default_value_t = 2.0)]
     pub heading_step_deg: f64,
     /// Largest heading sigma for which the fix trusts the estimate (no search), degrees.
     #[arg(long, default_value_t = 1.0)]
@@ -112,7 +113,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if !a.fresh {
         if let Ok(bytes) = std::fs::read(&a.json) {
             match serde_json::from_slice::<Report>(&bytes) {
-                Ok(old) if old.settings == opts && old.reprojection == a.reprojection => {
+                // Same settings (a longer drive extends a shorter one: the plan draws stop
+                // by stop).
+                Ok(old)
+                    if TraverseOptions {
+                        stops: opts.stops,
+                        ..old.settings.clone()
+                    } == opts
+                        && old.settings.stops <= opts.stops
+                        && old.reprojection == a.reprojection =>
+                {
                     let n = t.resume(old.stops)?;
                     if n > 0 {
                         eprintln!("resuming from {} after {n} stops", a.json.display());

@@ -10,7 +10,7 @@ fn err(e: impl std::fmt::Display) -> anyhow::Error {
     anyhow::anyhow!("plotting failed: {e}")
 }
 
-const TRUTH: RGBColor = RGBColor(40, 40, 40);
+const TRUTH: RGBColor = RGBColor(170, 170, 170);
 const ODO: RGBColor = RGBColor(214, 39, 40);
 const FUSED: RGBColor = RGBColor(31, 119, 180);
 const FIX_OK: RGBColor = RGBColor(44, 160, 44);
@@ -56,13 +56,13 @@ pub fn path_svg(path: &Path, records: &[StopRecord], title: &str) -> anyhow::Res
             .draw()
             .map_err(err)?;
         let line = |f: fn(&StopRecord) -> (f64, f64)| records.iter().map(f).collect::<Vec<_>>();
-        for (pts, color, name) in [
-            (line(|r| r.truth_m), TRUTH, "truth"),
-            (line(|r| r.odometry_m), ODO, "odometry alone"),
-            (line(|r| r.fused_m), FUSED, "fused"),
+        for (pts, color, width, name) in [
+            (line(|r| r.truth_m), TRUTH, 6, "truth (wide, grey)"),
+            (line(|r| r.odometry_m), ODO, 2, "odometry alone"),
+            (line(|r| r.fused_m), FUSED, 2, "fused"),
         ] {
             chart
-                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(width)))
                 .map_err(err)?
                 .label(name)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color));

@@ -58,7 +58,7 @@ impl Default for TraverseOptions {
             condition: Condition::SameSun,
             odometry_drift: 0.02,
             heading_sigma_deg: 0.5,
-            heading_step_deg: 1.0,
+            heading_step_deg: 2.0,
             heading_tolerance_deg: 1.0,
             leg_min_m: 30.0,
             leg_max_m: 50.0,
@@ -143,8 +143,9 @@ impl TraverseOptions {
 const SCALE_PER_DRIFT: f32 = 0.5;
 /// Initial heading bias, radians per unit of drift (0.02: 0.8 deg).
 const BIAS0_PER_DRIFT: f32 = 0.7;
-/// Heading bias random walk, radians per square-root metre per unit of drift.
-const BIAS_WALK_PER_DRIFT: f32 = 0.015;
+/// Heading bias random walk, radians per square-root metre per unit of drift (0.02: the
+/// heading wanders by 1.8 deg over 1 km, which alone drifts by about 2 % of the distance).
+const BIAS_WALK_PER_DRIFT: f32 = 0.05;
 /// Cross- and along-track position random walk, metres per square-root metre per unit of
 /// drift.
 const WALK_PER_DRIFT: f32 = 0.5;
