@@ -53,7 +53,11 @@ fn a_confident_fix_20_m_off_is_refused() {
     let u = f.update(&wrong).unwrap();
     assert!(!u.accepted());
     assert!(matches!(u.rejected, Some(RejectReason::Gate { mahalanobis2 }) if mahalanobis2 > 13.8));
-    assert_eq!(f.position(), pred, "a refused fix must not move the estimate");
+    assert_eq!(
+        f.position(),
+        pred,
+        "a refused fix must not move the estimate"
+    );
     assert_ne!(before, pred);
     assert_eq!(f.rejected_count(), 1);
     assert_eq!(f.rejection_streak(), 1);
@@ -110,8 +114,10 @@ fn consistent_fixes_shrink_the_covariance_and_the_search_radius() {
 
 #[test]
 fn refused_fixes_widen_the_search_radius() {
-    let mut cfg = FusionConfig::default();
-    cfg.radius_min_m = 1.0;
+    let cfg = FusionConfig {
+        radius_min_m: 1.0,
+        ..FusionConfig::default()
+    };
     let mut f = Fusion::new(cfg, 0.0, 0.0).unwrap();
     for _ in 0..4 {
         f.update(&fix_at(0.0, 0.0, 0.5, FixStatus::Ok)).unwrap();
@@ -121,12 +127,18 @@ fn refused_fixes_widen_the_search_radius() {
         let u = f.update(&fix_at(40.0, 0.0, 0.5, FixStatus::Ok)).unwrap();
         assert!(!u.accepted());
         let r2 = f.search_radius_m();
-        assert!(r2 > r, "radius {r2} did not widen from {r} after {k} refusals");
+        assert!(
+            r2 > r,
+            "radius {r2} did not widen from {r} after {k} refusals"
+        );
         r = r2;
     }
     assert_eq!(f.rejection_streak(), 4);
     // An accepted fix ends the streak.
-    assert!(f.update(&fix_at(0.1, 0.0, 0.5, FixStatus::Ok)).unwrap().accepted());
+    assert!(f
+        .update(&fix_at(0.1, 0.0, 0.5, FixStatus::Ok))
+        .unwrap()
+        .accepted());
     assert_eq!(f.rejection_streak(), 0);
 }
 
@@ -134,8 +146,10 @@ fn refused_fixes_widen_the_search_radius() {
 fn odometry_grows_the_uncertainty_and_a_heading_bias_is_learnt() {
     // Truth: the odometry's headings are 2 deg short (true heading = odometry + 2 deg).
     let bias = 2.0f32;
-    let mut cfg = FusionConfig::default();
-    cfg.initial_bias_sigma_rad = 0.05;
+    let cfg = FusionConfig {
+        initial_bias_sigma_rad: 0.05,
+        ..FusionConfig::default()
+    };
     let mut f = Fusion::new(cfg, 0.0, 0.0).unwrap();
     f.update(&fix_at(0.0, 0.0, 0.5, FixStatus::Ok)).unwrap();
     let (mut tx, mut ty) = (0.0f32, 0.0f32);
@@ -196,8 +210,10 @@ fn non_finite_inputs_are_typed_errors() {
     );
     assert_eq!(f, before, "a refused input must leave the filter unchanged");
     assert!(Fusion::new(FusionConfig::default(), f32::NAN, 0.0).is_err());
-    let mut cfg = FusionConfig::default();
-    cfg.gate_chi2 = f32::NAN;
+    let cfg = FusionConfig {
+        gate_chi2: f32::NAN,
+        ..FusionConfig::default()
+    };
     assert_eq!(
         Fusion::new(cfg, 0.0, 0.0),
         Err(FusionError::BadConfig { field: "gate_chi2" })

@@ -23,7 +23,10 @@ fn the_plan_keeps_its_legs_and_zone_and_the_odometry_drifts() {
     for w in p.stops.windows(2) {
         let (a, b) = (w[0], w[1]);
         let d = (b.truth_m.0 - a.truth_m.0).hypot(b.truth_m.1 - a.truth_m.1);
-        assert!((o.leg_min_m - 1e-6..=o.leg_max_m + 1e-6).contains(&d), "{d}");
+        assert!(
+            (o.leg_min_m - 1e-6..=o.leg_max_m + 1e-6).contains(&d),
+            "{d}"
+        );
         assert!(z.contains(b.truth_m.0, b.truth_m.1));
         let (dd, h) = b.odometry_leg.unwrap();
         odo = (
@@ -46,7 +49,11 @@ fn the_plan_keeps_its_legs_and_zone_and_the_odometry_drifts() {
     );
     // Deterministic in the seed, different across seeds.
     assert_eq!(plan(&o).unwrap().stops[7].truth_m, p.stops[7].truth_m);
-    let other = plan(&TraverseOptions { seed: 6, ..o.clone() }).unwrap();
+    let other = plan(&TraverseOptions {
+        seed: 6,
+        ..o.clone()
+    })
+    .unwrap();
     assert_ne!(other.stops[7].truth_m, p.stops[7].truth_m);
     assert!(plan(&TraverseOptions {
         odometry_drift: f64::NAN,
@@ -135,7 +142,10 @@ fn the_heading_search_recovers_a_heading_error() {
     assert_eq!(hf.tried, 9);
     assert_eq!(hf.scores.len(), 9);
     let herr = hf.heading_deg as f64 - heading;
-    assert!(herr.abs() <= 1.0, "heading error after the search {herr} deg");
+    assert!(
+        herr.abs() <= 1.0,
+        "heading error after the search {herr} deg"
+    );
     let err = (hf.report.x_m as f64 - truth.0).hypot(hf.report.y_m as f64 - truth.1);
     assert!(err < 0.5, "fix error {err} m");
     // The cost is counted: nine fixes' work.

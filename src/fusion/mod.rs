@@ -102,7 +102,10 @@ impl FusionConfig {
         let nonneg = |v: f32| v.is_finite() && v >= 0.0;
         let checks: [(bool, &'static str); 12] = [
             (pos(self.initial_sigma_m), "initial_sigma_m"),
-            (nonneg(self.initial_bias_sigma_rad), "initial_bias_sigma_rad"),
+            (
+                nonneg(self.initial_bias_sigma_rad),
+                "initial_bias_sigma_rad",
+            ),
             (nonneg(self.scale_sigma), "scale_sigma"),
             (nonneg(self.walk_m2_per_m), "walk_m2_per_m"),
             (nonneg(self.bias_walk_rad2_per_m), "bias_walk_rad2_per_m"),
@@ -463,12 +466,10 @@ fn transpose(a: &M3) -> M3 {
 }
 
 fn symmetrize(p: &mut M3) {
-    for i in 0..3 {
-        for j in (i + 1)..3 {
-            let m = 0.5 * (p[i][j] + p[j][i]);
-            p[i][j] = m;
-            p[j][i] = m;
-        }
+    for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+        let m = 0.5 * (p[i][j] + p[j][i]);
+        p[i][j] = m;
+        p[j][i] = m;
     }
 }
 

@@ -72,7 +72,10 @@ struct Row {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(stops) = a.traverse {
-        anyhow::ensure!((2..=100).contains(&stops), "--traverse must be 2..=100 stops");
+        anyhow::ensure!(
+            (2..=100).contains(&stops),
+            "--traverse must be 2..=100 stops"
+        );
         let dir = a.out.join("traverse");
         let d = orbfix_host::traverse::TraverseOptions::default();
         return super::traverse::run(super::traverse::Args {

@@ -118,7 +118,13 @@ pub fn error_svg(path: &Path, records: &[StopRecord], title: &str) -> anyhow::Re
         let clamp = |e: f64| e.max(floor);
         let emax = records
             .iter()
-            .flat_map(|r| [Some(r.odometry_error_m), r.fix_error_m, Some(r.fused_error_m)])
+            .flat_map(|r| {
+                [
+                    Some(r.odometry_error_m),
+                    r.fix_error_m,
+                    Some(r.fused_error_m),
+                ]
+            })
             .flatten()
             .fold(1.0, f64::max);
         let mut chart = ChartBuilder::on(&root)

@@ -238,9 +238,9 @@ pub fn plan(o: &TraverseOptions) -> anyhow::Result<Plan> {
             leg = Some((d_odo, h_odo.rem_euclid(360.0)));
         }
         let est = heading + o.heading_sigma_deg * unit.sample(&mut rng);
-        let cmp = o
-            .compare_heading_sigma_deg
-            .map(|s| heading + s * unit.sample(&mut rng));
+        // Drawn whether or not it is used: the comparison does not change the drive.
+        let cmp_draw: f64 = unit.sample(&mut rng);
+        let cmp = o.compare_heading_sigma_deg.map(|s| heading + s * cmp_draw);
         let q = suns
             .get(i)
             .ok_or_else(|| anyhow::anyhow!("sun of stop {i}"))?;
@@ -443,9 +443,15 @@ impl Traverse {
     pub fn resume(&mut self, done: Vec<StopRecord>) -> anyhow::Result<usize> {
         let mut taken = 0;
         for r in done {
-            if r.stop != self.records.len() || r.stop >= self.plan.stops.len() {
+            let planned = self.plan.stops.get(r.stop).map(|s| s.truth_m);
+            if r.stop != self.records.len() || planned.is_none() {
                 break;
             }
+            anyhow::ensure!(
+                planned.is_some_and(|t| dist(t, r.truth_m) < 1e-6),
+                "stop {}: the saved run was planned differently (delete the JSON or pass --fresh)",
+                r.stop
+            );
             self.advance()?;
             let u = self
                 .fusion
@@ -453,7 +459,7 @@ impl Traverse {
                 .map_err(|e| anyhow::anyhow!("stop {}: {e}", r.stop))?;
             anyhow::ensure!(
                 u.accepted() == r.accepted,
-                "stop {}: the saved run does not replay (delete the JSON to start again)",
+                "stop {}: the saved run does not replay (delete the JSON or pass --fresh)",
                 r.stop
             );
             self.records.push(r);
@@ -504,10 +510,7 @@ impl Traverse {
         // the radius, in whole window steps.
         let mo = MapProductOptions {
             window_px: opts.grid.n,
-            sun_deg: Some((
-                s.sun_map.elevation_deg as f32,
-                s.sun_map.azimuth_deg as f32,
-            )),
+            sun_deg: Some((s.sun_map.elevation_deg as f32, s.sun_map.azimuth_deg as f32)),
             ..MapProductOptions::default()
         };
         let m = opts.grid.m_per_px as f64;
