@@ -207,16 +207,26 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     )?;
     print!("{}", markdown_table(&t.records));
     let s = summarize(&t.records);
+    let fused = if s.stops > 5 {
+        format!(
+            "fused after stop 5: max {:.2} m, mean {:.2} m, within 1 m {:.0} %, within 2 m {:.0} %",
+            s.fused_max_error_after_5_m,
+            s.fused_mean_error_after_5_m,
+            100.0 * s.fused_within_1m_after_5,
+            100.0 * s.fused_within_2m_after_5
+        )
+    } else {
+        format!(
+            "fused at the last stop {:.2} m (the targets count stops after the fifth)",
+            t.records.last().map_or(0.0, |r| r.fused_error_m)
+        )
+    };
     println!(
-        "summary: {:.0} m driven; odometry alone {:.1} m off at the end (drift since the start {:.1} % of distance; max error {:.1} m); fused after stop 5: max {:.2} m, mean {:.2} m, within 1 m {:.0} %, within 2 m {:.0} %; fixes within 1 m {:.0} % of stops; accepted {} (max error {:.2} m, {} over 5 m), refused {}",
+        "summary: {:.0} m driven; odometry alone {:.1} m off at the end (drift since the start {:.1} % of distance; max error {:.1} m); {fused}; fixes within 1 m {:.0} % of stops; accepted {} (max error {:.2} m, {} over 5 m), refused {}",
         s.distance_m,
         s.odometry_final_error_m,
         100.0 * s.odometry_drift_share,
         s.odometry_max_error_m,
-        s.fused_max_error_after_5_m,
-        s.fused_mean_error_after_5_m,
-        100.0 * s.fused_within_1m_after_5,
-        100.0 * s.fused_within_2m_after_5,
         100.0 * s.fix_within_1m,
         s.accepted,
         s.accepted_max_error_m,
