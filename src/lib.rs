@@ -19,6 +19,8 @@
 //! - [`localize`]: the study's 441-window search and the coarse-to-fine dense fix;
 //! - [`fix`]: the one pipeline, four frames and a map product to a position with an error
 //!   bound and a confidence (what flies, what is evaluated and what is budgeted);
+//! - [`fusion`]: the fixes fused with odometry over a drive (a small Kalman filter with an
+//!   innovation gate) and the next stop's search radius;
 //! - [`map_product`]: the versioned map file the rover carries (map, georeference, CNN
 //!   window records, CRC-32);
 //! - [`peak`]: sub-sample peak location;
@@ -36,6 +38,7 @@
 
 pub mod camera;
 pub mod fix;
+pub mod fusion;
 pub mod geo;
 pub mod image;
 pub mod localize;

@@ -19,4 +19,5 @@ pub mod reproject_bench;
 pub mod reproject_ref;
 pub mod stereo_bench;
 pub mod tflite;
+pub mod traverse;
 pub mod world;

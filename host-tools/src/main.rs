@@ -26,6 +26,8 @@ enum Command {
     Localize(cmd::localize::Args),
     /// Evaluate matchers on generated rover stops of the test zone (recall@k, errors, pairs).
     Eval(cmd::eval::Args),
+    /// Drive a planned path: fixes fused with drifting odometry in the core's filter.
+    Traverse(cmd::traverse::Args),
     /// Write an orbital map region of the built-in world as MAP.png + MAP.json.
     Map(cmd::map::Args),
     /// Reproject a dataset location's four views to a north-up top-down image (core LUT).
@@ -110,6 +112,7 @@ fn run() -> anyhow::Result<()> {
         Command::Demo(a) => cmd::demo::run(a)?,
         Command::Localize(a) => cmd::localize::run(a)?,
         Command::Eval(a) => cmd::eval::run(a)?,
+        Command::Traverse(a) => cmd::traverse::run(a)?,
         Command::Map(a) => cmd::map::run(a)?,
         Command::Reproject(a) => cmd::reproject::run(a)?,
         Command::Elevation { seed, x, y } => {

@@ -30,6 +30,7 @@
 pub mod coarse;
 mod config;
 mod digest;
+pub mod heading;
 pub mod protocol;
 pub mod refine;
 mod report;
@@ -38,6 +39,7 @@ mod stage;
 
 pub use config::{ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck};
 pub use digest::{fnv1a, fnv1a_start, output_digest};
+pub use heading::{run_heading_search, HeadingFix, HeadingSearch, MAX_HEADINGS};
 pub use report::{FixError, FixPath, FixReport, FixStatus, ReprojectionSummary, StageOps};
 pub use scratch::{fix_buffer_sizes, FixBufferSizes, FixScratch, RefineLayout, LUT_BAND_ROWS};
 pub use stage::{NoClock, Stage, StageClock};

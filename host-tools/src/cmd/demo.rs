@@ -46,6 +46,10 @@ pub struct Args {
     /// Lighting (same-sun is the study's setting).
     #[arg(long, value_enum, default_value_t = Condition::SameSun)]
     pub condition: Condition,
+    /// Instead of separate stops, drive a short traverse of this many stops (the fixes
+    /// fused with drifting odometry, `orbfix traverse`): pictures in OUT/traverse.
+    #[arg(long)]
+    pub traverse: Option<usize>,
 }
 
 #[derive(Serialize)]
@@ -67,6 +71,33 @@ struct Row {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    if let Some(stops) = a.traverse {
+        anyhow::ensure!(
+            (2..=100).contains(&stops),
+            "--traverse must be 2..=100 stops"
+        );
+        let dir = a.out.join("traverse");
+        let d = orbfix_host::traverse::TraverseOptions::default();
+        return super::traverse::run(super::traverse::Args {
+            seed: a.seed,
+            stops,
+            json: dir.join("traverse.json"),
+            figures: dir,
+            condition: a.condition,
+            odometry_drift: d.odometry_drift,
+            heading_sigma_deg: d.heading_sigma_deg,
+            heading_step_deg: d.heading_step_deg,
+            heading_tolerance_deg: d.heading_tolerance_deg,
+            compare_heading_sigma_deg: None,
+            leg_min_m: d.leg_min_m,
+            leg_max_m: d.leg_max_m,
+            start_sigma_m: d.start_sigma_m,
+            reprojection: a.reprojection,
+            weights: a.weights,
+            fresh: true,
+            quiet: false,
+        });
+    }
     anyhow::ensure!((1..=100).contains(&a.stops), "--stops must be 1..=100");
     let name = a
         .matcher

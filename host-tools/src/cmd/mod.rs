@@ -19,3 +19,4 @@ pub mod render;
 pub mod reproject;
 pub mod results;
 pub mod train;
+pub mod traverse;

@@ -11,10 +11,10 @@ use orbfix::image::ImageView;
 use orbfix::reproject::{self, Cell, GridSpec, Tap};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// How the four views become a top-down image.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Reprojection {
     /// The flight core's integer LUT, flat-ground assumption (for rovers without depth).
@@ -338,7 +338,7 @@ pub fn map_region(
 }
 
 /// Lighting of an evaluation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Condition {
     /// The study's setting: map and rover under one sun, 30 deg elevation, azimuth 135 deg.

@@ -1,7 +1,9 @@
 //! Runs the core's fix on owned images with owned scratch.
 
 use orbfix::camera::{CameraParams, RoverPose};
-use orbfix::fix::{self, Depth, FixConfig, FixInputs, FixReport, FixScratch, NoClock};
+use orbfix::fix::{
+    self, Depth, FixConfig, FixInputs, FixReport, FixScratch, HeadingFix, HeadingSearch, NoClock,
+};
 use orbfix::image::ImageView;
 use orbfix::map_product::{CrcCheck, MapProduct};
 use orbfix::nn::input::INPUT_LEN;
@@ -56,6 +58,50 @@ impl FixRunner {
         depths: Option<&[Vec<u16>; 4]>,
         product: &[u8],
     ) -> anyhow::Result<FixOutcome> {
+        let n = self.cfg.grid.n;
+        let (report, mut out) =
+            self.with_scratch(params, pose, frames, depths, product, |inputs, scratch| {
+                let report = fix::run(inputs, &self.cfg, scratch, &mut NoClock)?;
+                let digest = fix::output_digest(&report, scratch, n);
+                Ok((report, digest))
+            })?;
+        let (report, digest) = report;
+        out.report = report;
+        out.digest = digest;
+        Ok(out)
+    }
+
+    /// Runs the core's heading search ([`orbfix::fix::run_heading_search`]) around
+    /// `pose.heading_deg`; the images of the outcome are those of the last heading tried
+    /// (the core's scratch), its report the best heading's.
+    pub fn run_heading_search(
+        &self,
+        params: &CameraParams,
+        pose: &RoverPose,
+        frames: [Option<ImageView<'_>>; 4],
+        depths: Option<&[Vec<u16>; 4]>,
+        product: &[u8],
+        search: &HeadingSearch,
+    ) -> anyhow::Result<(HeadingFix, FixOutcome)> {
+        let (hf, mut out) =
+            self.with_scratch(params, pose, frames, depths, product, |inputs, scratch| {
+                fix::run_heading_search(inputs, &self.cfg, search, scratch, &mut NoClock)
+            })?;
+        out.report = hf.report.clone();
+        Ok((hf, out))
+    }
+
+    /// Sets up the inputs and owned scratch, times `f` on them and returns its result with
+    /// the images left in the scratch (report and digest left empty for the caller).
+    fn with_scratch<R>(
+        &self,
+        params: &CameraParams,
+        pose: &RoverPose,
+        frames: [Option<ImageView<'_>>; 4],
+        depths: Option<&[Vec<u16>; 4]>,
+        product: &[u8],
+        f: impl FnOnce(&FixInputs<'_>, &mut FixScratch<'_>) -> Result<R, fix::FixError>,
+    ) -> anyhow::Result<(R, FixOutcome)> {
         let meta = *MapProduct::parse(product, CrcCheck::Skip)
             .map_err(|e| anyhow::anyhow!("{e}"))?
             .meta();
@@ -100,22 +146,32 @@ impl FixRunner {
             nn_embedding: &mut emb,
         };
         let t0 = Instant::now();
-        let report = fix::run(&inputs, &self.cfg, &mut scratch, &mut NoClock)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let result = f(&inputs, &mut scratch).map_err(|e| anyhow::anyhow!("{e}"))?;
         let seconds = t0.elapsed().as_secs_f64();
-        let digest = fix::output_digest(&report, &scratch, self.cfg.grid.n);
         let l = MapProduct::parse(product, CrcCheck::Skip)
             .map_err(|e| anyhow::anyhow!("{e}"))?
             .layout()
             .to_owned();
-        Ok(FixOutcome {
-            report,
-            top,
-            mask,
-            response,
-            grid: (l.cols, l.rows, meta.step_px),
-            digest,
-            seconds,
-        })
+        let report = FixReport::no_data(pose.x_m, pose.y_m, empty_summary());
+        Ok((
+            result,
+            FixOutcome {
+                report,
+                top,
+                mask,
+                response,
+                grid: (l.cols, l.rows, meta.step_px),
+                digest: 0,
+                seconds,
+            },
+        ))
+    }
+}
+
+fn empty_summary() -> orbfix::fix::ReprojectionSummary {
+    orbfix::fix::ReprojectionSummary {
+        range: false,
+        status: [orbfix::reproject::FrameStatus::Missing; 4],
+        valid_cells: 0,
     }
 }

@@ -1,0 +1,792 @@
+//! A whole drive on the built-in world (`orbfix traverse`): a planned path of straight legs
+//! and turns through the test zone, drifting odometry, a heading estimate with a stated
+//! error, and at every stop the eval's rendering (the four views and their depth at the
+//! truth, the orbital map region around the prior, its map product) and the core's one fix
+//! ([`orbfix::fix::run`], or its heading search [`orbfix::fix::run_heading_search`]) around
+//! the fused prior, folded into the core's filter ([`orbfix::fusion::Fusion`]). Nothing here
+//! localizes: the host simulates the drive, renders and reports.
+
+pub mod figures;
+
+use crate::eval::pipeline::{
+    make_queries, map_region, observe_raw, Condition, PipelineOptions, Reprojection,
+};
+use crate::fix::{build_map_product, FixRunner, MapProductOptions};
+use crate::render::Sun;
+use crate::world::{zones, World};
+use orbfix::fix::{FixConfig, FixReport, FixStatus, HeadingSearch};
+use orbfix::fusion::{Fusion, FusionConfig, OdometryLeg};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Settings of a simulated drive.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct TraverseOptions {
+    /// World seed (also seeds the path, the odometry and the headings).
+    pub seed: u64,
+    /// Stops, the first at the start.
+    pub stops: usize,
+    /// Lighting of the rover views against the map.
+    pub condition: Condition,
+    /// Odometry drift, fraction of the distance driven (module docs: the model).
+    pub odometry_drift: f64,
+    /// Standard deviation of the heading estimate given to the fix, degrees.
+    pub heading_sigma_deg: f64,
+    /// Heading search step, degrees (used when the heading sigma exceeds the tolerance).
+    pub heading_step_deg: f64,
+    /// Largest heading sigma without a search, degrees.
+    pub heading_tolerance_deg: f64,
+    /// Shortest leg between stops, metres.
+    pub leg_min_m: f64,
+    /// Longest leg between stops, metres.
+    pub leg_max_m: f64,
+    /// Standard deviation of the start position's error, per axis, metres.
+    pub start_sigma_m: f64,
+    /// Heading sigma of the per-stop comparison (known heading, this sigma without search,
+    /// with search), degrees; `None`: no comparison.
+    pub compare_heading_sigma_deg: Option<f64>,
+}
+
+impl Default for TraverseOptions {
+    fn default() -> Self {
+        Self {
+            seed: 2,
+            stops: 26,
+            condition: Condition::SameSun,
+            odometry_drift: 0.02,
+            heading_sigma_deg: 0.5,
+            heading_step_deg: 2.0,
+            heading_tolerance_deg: 1.0,
+            leg_min_m: 30.0,
+            leg_max_m: 50.0,
+            start_sigma_m: 10.0,
+            compare_heading_sigma_deg: None,
+        }
+    }
+}
+
+impl TraverseOptions {
+    /// Checks the settings; the message names the flag.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            (1..=500).contains(&self.stops),
+            "--stops must be 1..=500 (got {})",
+            self.stops
+        );
+        anyhow::ensure!(
+            self.odometry_drift.is_finite() && (0.0..=0.5).contains(&self.odometry_drift),
+            "--odometry-drift must be a fraction in 0..=0.5 (e.g. 0.02 for 2 % of distance)"
+        );
+        for (v, flag) in [
+            (self.heading_sigma_deg, "--heading-sigma-deg"),
+            (self.heading_tolerance_deg, "--heading-tolerance-deg"),
+            (self.start_sigma_m, "--start-sigma-m"),
+        ] {
+            anyhow::ensure!(
+                v.is_finite() && (0.0..=100.0).contains(&v),
+                "{flag} must be a number in 0..=100"
+            );
+        }
+        anyhow::ensure!(
+            self.heading_step_deg.is_finite()
+                && self.heading_step_deg > 0.0
+                && self.heading_step_deg <= 10.0,
+            "--heading-step-deg must be in (0, 10] degrees"
+        );
+        anyhow::ensure!(
+            self.leg_min_m.is_finite()
+                && self.leg_min_m >= 1.0
+                && self.leg_max_m.is_finite()
+                && self.leg_max_m >= self.leg_min_m
+                && self.leg_max_m <= 200.0,
+            "legs must satisfy 1 <= --leg-min-m <= --leg-max-m <= 200"
+        );
+        if let Some(s) = self.compare_heading_sigma_deg {
+            anyhow::ensure!(
+                s.is_finite() && (0.0..=20.0).contains(&s),
+                "--compare-heading-sigma-deg must be in 0..=20"
+            );
+        }
+        Ok(())
+    }
+
+    /// The core filter's settings for this odometry model (the rover knows its odometry's
+    /// specification; the filter's noise is set a little above the simulated one).
+    pub fn fusion_config(&self) -> FusionConfig {
+        let f = self.odometry_drift as f32;
+        FusionConfig {
+            initial_sigma_m: (2.0 * self.start_sigma_m as f32).max(1.0),
+            initial_bias_sigma_rad: (1.5 * BIAS0_PER_DRIFT * f).max(1e-4),
+            scale_sigma: (SCALE_PER_DRIFT * 2.0 * f).max(1e-4),
+            walk_m2_per_m: (2.0 * WALK_PER_DRIFT * f).powi(2).max(1e-6),
+            bias_walk_rad2_per_m: (2.0 * BIAS_WALK_PER_DRIFT * f).powi(2).max(1e-9),
+            ..FusionConfig::default()
+        }
+    }
+
+    /// The heading search the fused fix runs (`None`: the heading is good enough).
+    pub fn heading_search(&self, sigma_deg: f64) -> anyhow::Result<Option<HeadingSearch>> {
+        HeadingSearch::for_sigma(
+            sigma_deg as f32,
+            self.heading_tolerance_deg as f32,
+            self.heading_step_deg as f32,
+        )
+        .map_err(|e| anyhow::anyhow!("heading search: {e}"))
+    }
+}
+
+/// Odometry model, per unit of `odometry_drift`: scale error (standard deviation, a
+/// constant of the drive).
+const SCALE_PER_DRIFT: f32 = 0.5;
+/// Initial heading bias, radians per unit of drift (0.02: 0.8 deg).
+const BIAS0_PER_DRIFT: f32 = 0.7;
+/// Heading bias random walk, radians per square-root metre per unit of drift (0.02: the
+/// heading wanders by 1.8 deg over 1 km, which alone drifts by about 2 % of the distance).
+const BIAS_WALK_PER_DRIFT: f32 = 0.05;
+/// Cross- and along-track position random walk, metres per square-root metre per unit of
+/// drift.
+const WALK_PER_DRIFT: f32 = 0.5;
+
+/// One stop of the planned drive with what the rover's sensors said.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+pub struct PlannedStop {
+    /// Stop number.
+    pub stop: usize,
+    /// True position `(east, north)`, metres.
+    pub truth_m: (f64, f64),
+    /// True heading at the stop (that of the leg driven to it), degrees.
+    pub heading_deg: f64,
+    /// Distance driven from the start, metres.
+    pub distance_m: f64,
+    /// The leg to this stop as the odometry measured it (none for the first stop).
+    pub odometry_leg: Option<(f64, f64)>,
+    /// The heading estimate given to the fix, degrees.
+    pub heading_estimate_deg: f64,
+    /// The comparison's heading estimate (its own sigma), degrees.
+    pub compare_heading_deg: Option<f64>,
+    /// Suns of the rover views and of the map.
+    pub sun_rover: Sun,
+    /// Sun of the map.
+    pub sun_map: Sun,
+}
+
+/// The whole planned drive: the truth, the odometry's legs and the start prior.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Plan {
+    /// Start prior (truth plus an error of `start_sigma_m`), metres.
+    pub start_prior_m: (f64, f64),
+    /// Stops in order.
+    pub stops: Vec<PlannedStop>,
+}
+
+/// Plans the drive of `o` (deterministic in the seed): legs of `leg_min_m..leg_max_m`
+/// with turns of up to 45 deg, turning back towards the zone's centre when a leg would leave
+/// the inner test zone (100 m margin); the odometry of each leg (scale error, heading bias
+/// with a random walk, position random walk); the heading estimates.
+pub fn plan(o: &TraverseOptions) -> anyhow::Result<Plan> {
+    o.validate()?;
+    let mut rng = ChaCha8Rng::seed_from_u64(o.seed ^ 0x7472_6176_6572_7365);
+    let z = zones::zone(zones::Split::Test);
+    let margin = 100.0;
+    let (x0, x1) = (z.x_min_m + margin, z.x_max_m - margin);
+    let (y0, y1) = (z.y_min_m + margin, z.y_max_m - margin);
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let normal = |s: f64| Normal::new(0.0, s.max(0.0)).map_err(|e| anyhow::anyhow!("{e}"));
+    let unit = normal(1.0)?;
+    let f = o.odometry_drift;
+    let scale = 1.0 + SCALE_PER_DRIFT as f64 * f * unit.sample(&mut rng);
+    let mut bias = BIAS0_PER_DRIFT as f64 * f * unit.sample(&mut rng);
+    let suns = make_queries(o.seed ^ 0x7375_6e73, o.stops, o.condition);
+    let mut pos = (
+        rng.random_range(x0 + 100.0..x1 - 100.0),
+        rng.random_range(y0 + 100.0..y1 - 100.0),
+    );
+    let mut heading: f64 = rng.random_range(0.0..360.0);
+    let start_prior_m = (
+        pos.0 + o.start_sigma_m * unit.sample(&mut rng),
+        pos.1 + o.start_sigma_m * unit.sample(&mut rng),
+    );
+    let mut stops = Vec::with_capacity(o.stops);
+    let mut distance = 0.0;
+    for i in 0..o.stops {
+        let mut leg = None;
+        if i > 0 {
+            let d = rng.random_range(o.leg_min_m..=o.leg_max_m);
+            let mut h = heading + rng.random_range(-45.0..45.0);
+            let next = |h: f64| {
+                let r = h.to_radians();
+                (pos.0 + d * r.sin(), pos.1 + d * r.cos())
+            };
+            let inside = |p: (f64, f64)| p.0 >= x0 && p.0 <= x1 && p.1 >= y0 && p.1 <= y1;
+            if !inside(next(h)) {
+                h = (cx - pos.0).atan2(cy - pos.1).to_degrees() + rng.random_range(-30.0..30.0);
+            }
+            let h = h.rem_euclid(360.0);
+            // Odometry: true heading = odometry heading + bias.
+            let walk = WALK_PER_DRIFT as f64 * f * d.sqrt();
+            let along = d * scale + walk * unit.sample(&mut rng);
+            let cross = walk * unit.sample(&mut rng);
+            let d_odo = (along * along + cross * cross).sqrt();
+            let h_odo = h - bias.to_degrees() + cross.atan2(along).to_degrees();
+            bias += BIAS_WALK_PER_DRIFT as f64 * f * d.sqrt() * unit.sample(&mut rng);
+            pos = next(h);
+            heading = h;
+            distance += d;
+            leg = Some((d_odo, h_odo.rem_euclid(360.0)));
+        }
+        let est = heading + o.heading_sigma_deg * unit.sample(&mut rng);
+        // Drawn whether or not it is used: the comparison does not change the drive.
+        let cmp_draw: f64 = unit.sample(&mut rng);
+        let cmp = o.compare_heading_sigma_deg.map(|s| heading + s * cmp_draw);
+        let q = suns
+            .get(i)
+            .ok_or_else(|| anyhow::anyhow!("sun of stop {i}"))?;
+        stops.push(PlannedStop {
+            stop: i,
+            truth_m: pos,
+            heading_deg: heading,
+            distance_m: distance,
+            odometry_leg: leg,
+            heading_estimate_deg: est.rem_euclid(360.0),
+            compare_heading_deg: cmp.map(|c| c.rem_euclid(360.0)),
+            sun_rover: q.sun_rover,
+            sun_map: q.sun_map,
+        });
+    }
+    Ok(Plan {
+        start_prior_m,
+        stops,
+    })
+}
+
+/// The comparison of one stop: the fix's error with the known heading, with the heading
+/// estimate of the comparison's sigma, and with the heading search around that estimate.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct HeadingCompare {
+    /// Error of the fix with the true heading, metres (null: no data).
+    pub known_error_m: Option<f64>,
+    /// Status of that fix.
+    pub known_status: String,
+    /// Error with the noisy heading, no search, metres.
+    pub noisy_error_m: Option<f64>,
+    /// Status of that fix.
+    pub noisy_status: String,
+    /// Heading error given, degrees.
+    pub noisy_heading_error_deg: f64,
+    /// Error with the heading search, metres.
+    pub search_error_m: Option<f64>,
+    /// Status of that fix.
+    pub search_status: String,
+    /// Heading error after the search, degrees.
+    pub search_heading_error_deg: f64,
+    /// Headings tried.
+    pub search_tried: usize,
+    /// Wall time of the search, milliseconds.
+    pub search_ms: f64,
+    /// Wall time of the known-heading fix, milliseconds.
+    pub known_ms: f64,
+}
+
+/// What happened at one stop.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StopRecord {
+    /// Stop number.
+    pub stop: usize,
+    /// Distance driven from the start, metres.
+    pub distance_m: f64,
+    /// True position, metres.
+    pub truth_m: (f64, f64),
+    /// Odometry alone (dead reckoning from the start prior), metres.
+    pub odometry_m: (f64, f64),
+    /// Its error, metres.
+    pub odometry_error_m: f64,
+    /// Its drift since the start (error less the start prior's error, as vectors), metres.
+    pub odometry_drift_m: f64,
+    /// The fused prediction the fix searched around, metres.
+    pub prior_m: (f64, f64),
+    /// Its error, metres.
+    pub prior_error_m: f64,
+    /// Search radius the filter asked for, metres.
+    pub search_radius_m: f64,
+    /// Side of the map region searched, metres.
+    pub map_side_m: f64,
+    /// The fix's position (null when no data).
+    pub fix_m: Option<(f64, f64)>,
+    /// Its error, metres (null when no fix).
+    pub fix_error_m: Option<f64>,
+    /// Its stated error bound, metres (null when no fix).
+    pub fix_bound_m: Option<f64>,
+    /// Its status.
+    pub fix_status: String,
+    /// Its path (ncc, cnn, none).
+    pub fix_path: String,
+    /// Its confidence.
+    pub fix_confidence: f64,
+    /// Heading given to the fix, degrees; its error.
+    pub heading_error_deg: f64,
+    /// Heading the fix reported (heading search), and its error, degrees.
+    pub fix_heading_error_deg: Option<f64>,
+    /// Headings the fix tried.
+    pub headings_tried: usize,
+    /// Whether the filter folded the fix in.
+    pub accepted: bool,
+    /// Why not (status name or `innovation-gate`), with the detail.
+    pub reject_reason: Option<String>,
+    /// Squared Mahalanobis distance of the innovation.
+    pub mahalanobis2: f64,
+    /// The fused position after the stop, metres.
+    pub fused_m: (f64, f64),
+    /// Its error, metres.
+    pub fused_error_m: f64,
+    /// The filter's standard deviation along the major axis, metres.
+    pub fused_sigma_m: f64,
+    /// The filter's heading bias estimate, degrees.
+    pub heading_bias_deg: f64,
+    /// Per-stop heading comparison (with `--compare-heading-sigma-deg`).
+    pub compare: Option<HeadingCompare>,
+    /// Wall time: rendering views and map, building the map product, seconds.
+    pub render_s: f64,
+    /// Wall time of the fix (all headings), milliseconds.
+    pub fix_ms: f64,
+}
+
+fn dist(a: (f64, f64), b: (f64, f64)) -> f64 {
+    ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt()
+}
+
+/// A fix report rebuilt from a stop record (to replay the filter when resuming).
+fn report_of(r: &StopRecord) -> FixReport {
+    let (x, y) = r.fix_m.unwrap_or(r.prior_m);
+    let mut rep = FixReport::no_data(
+        x as f32,
+        y as f32,
+        orbfix::fix::ReprojectionSummary {
+            range: true,
+            status: [orbfix::reproject::FrameStatus::Ok; 4],
+            valid_cells: 0,
+        },
+    );
+    rep.status = match r.fix_status.as_str() {
+        "ok" => FixStatus::Ok,
+        "ambiguous" => FixStatus::Ambiguous,
+        "on-border" => FixStatus::OnBorder,
+        "self-check-failed" => FixStatus::SelfCheckFailed,
+        _ => FixStatus::NoData,
+    };
+    rep.error_bound_m = r.fix_bound_m.map_or(f32::INFINITY, |b| b as f32);
+    rep.confidence = r.fix_confidence as f32;
+    rep
+}
+
+/// The drive in progress: the plan, the filter, dead reckoning and the records so far.
+pub struct Traverse {
+    /// Settings.
+    pub opts: TraverseOptions,
+    /// The plan.
+    pub plan: Plan,
+    /// The rendering pipeline (the eval's).
+    pub pipeline: PipelineOptions,
+    /// The fix.
+    pub runner: FixRunner,
+    world: World,
+    fusion: Fusion,
+    odo: (f64, f64),
+    /// Stops done.
+    pub records: Vec<StopRecord>,
+}
+
+impl Traverse {
+    /// A drive with the weights `weights` and the fix configuration `cfg` (the eval's
+    /// `fix` matcher by default); rendering with `reprojection` as the eval does.
+    pub fn new(
+        opts: TraverseOptions,
+        weights: Vec<u8>,
+        cfg: FixConfig,
+        reprojection: Reprojection,
+    ) -> anyhow::Result<Self> {
+        let plan = plan(&opts)?;
+        let pipeline = PipelineOptions {
+            reprojection,
+            ..PipelineOptions::default()
+        };
+        let mut cfg = cfg;
+        cfg.grid = pipeline.grid;
+        cfg.range = pipeline.range;
+        let fusion = Fusion::new(
+            opts.fusion_config(),
+            plan.start_prior_m.0 as f32,
+            plan.start_prior_m.1 as f32,
+        )
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        Ok(Self {
+            world: World::new(opts.seed),
+            odo: plan.start_prior_m,
+            plan,
+            pipeline,
+            runner: FixRunner { weights, cfg },
+            fusion,
+            opts,
+            records: Vec::new(),
+        })
+    }
+
+    /// The core filter.
+    pub fn fusion(&self) -> &Fusion {
+        &self.fusion
+    }
+
+    /// Replays `done` (records of an earlier run of the same settings) through the
+    /// filter and dead reckoning without rendering; returns how many were taken.
+    pub fn resume(&mut self, done: Vec<StopRecord>) -> anyhow::Result<usize> {
+        let mut taken = 0;
+        for r in done {
+            let planned = self.plan.stops.get(r.stop).map(|s| s.truth_m);
+            if r.stop != self.records.len() || planned.is_none() {
+                break;
+            }
+            anyhow::ensure!(
+                planned.is_some_and(|t| dist(t, r.truth_m) < 1e-6),
+                "stop {}: the saved run was planned differently (delete the JSON or pass --fresh)",
+                r.stop
+            );
+            self.advance()?;
+            let u = self
+                .fusion
+                .update(&report_of(&r))
+                .map_err(|e| anyhow::anyhow!("stop {}: {e}", r.stop))?;
+            anyhow::ensure!(
+                u.accepted() == r.accepted,
+                "stop {}: the saved run does not replay (delete the JSON or pass --fresh)",
+                r.stop
+            );
+            self.records.push(r);
+            taken += 1;
+        }
+        Ok(taken)
+    }
+
+    /// Dead reckoning and the filter's prediction over the leg to the next stop.
+    fn advance(&mut self) -> anyhow::Result<&PlannedStop> {
+        let i = self.records.len();
+        let s = self
+            .plan
+            .stops
+            .get(i)
+            .ok_or_else(|| anyhow::anyhow!("the drive has only {i} stops"))?;
+        if let Some((d, h)) = s.odometry_leg {
+            let r = h.to_radians();
+            self.odo = (self.odo.0 + d * r.sin(), self.odo.1 + d * r.cos());
+            self.fusion
+                .predict(&OdometryLeg {
+                    distance_m: d as f32,
+                    heading_deg: h as f32,
+                })
+                .map_err(|e| anyhow::anyhow!("stop {i}: {e}"))?;
+        }
+        Ok(s)
+    }
+
+    /// Drives to the next stop, renders it, runs the fix around the fused prior and folds
+    /// the report into the filter.
+    pub fn step(&mut self) -> anyhow::Result<&StopRecord> {
+        let s = *self.advance()?;
+        let prior = self.fusion.position();
+        let prior = (prior.0 as f64, prior.1 as f64);
+        let radius = self.fusion.search_radius_m() as f64;
+        let t0 = Instant::now();
+        let opts = &self.pipeline;
+        let obs = observe_raw(
+            &self.world,
+            s.truth_m.0,
+            s.truth_m.1,
+            s.heading_deg,
+            s.sun_rover,
+            opts,
+        )?;
+        // Window centres within `radius` of the prior: a map of the window side plus twice
+        // the radius, in whole window steps.
+        let mo = MapProductOptions {
+            window_px: opts.grid.n,
+            sun_deg: Some((s.sun_map.elevation_deg as f32, s.sun_map.azimuth_deg as f32)),
+            ..MapProductOptions::default()
+        };
+        let m = opts.grid.m_per_px as f64;
+        let steps = (radius / m / mo.step_px as f64).ceil().max(1.0) as usize;
+        let map_px = opts.grid.n + 2 * steps * mo.step_px;
+        let map = map_region(
+            &self.world,
+            prior.0,
+            prior.1,
+            map_px,
+            m,
+            s.sun_map,
+            &opts.render,
+        )?;
+        let product = build_map_product(&map, &self.runner.weights, &mo)?;
+        let render_s = t0.elapsed().as_secs_f64();
+        let frames = obs.frames()?;
+        let pose_at = |h: f64| {
+            let mut p = obs.pose;
+            p.x_m = prior.0 as f32;
+            p.y_m = prior.1 as f32;
+            p.heading_deg = h as f32;
+            p
+        };
+        let depths = obs.depths.as_ref();
+        let run_fix = |h: f64,
+                       search: Option<HeadingSearch>|
+         -> anyhow::Result<(FixReport, Option<f64>, usize, f64)> {
+            let t = Instant::now();
+            let pose = pose_at(h);
+            Ok(match search {
+                None => {
+                    let out = self
+                        .runner
+                        .run(&obs.params, &pose, frames, depths, &product)?;
+                    (out.report, None, 1, t.elapsed().as_secs_f64() * 1e3)
+                }
+                Some(hs) => {
+                    let (hf, _) = self.runner.run_heading_search(
+                        &obs.params,
+                        &pose,
+                        frames,
+                        depths,
+                        &product,
+                        &hs,
+                    )?;
+                    (
+                        hf.report,
+                        Some(hf.heading_deg as f64),
+                        hf.tried,
+                        t.elapsed().as_secs_f64() * 1e3,
+                    )
+                }
+            })
+        };
+        let search = self.opts.heading_search(self.opts.heading_sigma_deg)?;
+        let (report, fix_heading, tried, fix_ms) = run_fix(s.heading_estimate_deg, search)?;
+        let herr = |h: f64| (h - s.heading_deg + 540.0).rem_euclid(360.0) - 180.0;
+        let err_of = |r: &FixReport| {
+            (r.status != FixStatus::NoData).then(|| dist((r.x_m as f64, r.y_m as f64), s.truth_m))
+        };
+        let compare = match (self.opts.compare_heading_sigma_deg, s.compare_heading_deg) {
+            (Some(sigma), Some(h)) => {
+                let (known, _, _, known_ms) = run_fix(s.heading_deg, None)?;
+                let (noisy, _, _, _) = run_fix(h, None)?;
+                let hs = self
+                    .opts
+                    .heading_search(sigma)?
+                    .map_or_else(|| HeadingSearch::new(0, 1.0), Ok)
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+                let (found, fh, n, ms) = run_fix(h, Some(hs))?;
+                Some(HeadingCompare {
+                    known_error_m: err_of(&known),
+                    known_status: known.status.name().into(),
+                    noisy_error_m: err_of(&noisy),
+                    noisy_status: noisy.status.name().into(),
+                    noisy_heading_error_deg: herr(h),
+                    search_error_m: err_of(&found),
+                    search_status: found.status.name().into(),
+                    search_heading_error_deg: herr(fh.unwrap_or(h)),
+                    search_tried: n,
+                    search_ms: ms,
+                    known_ms,
+                })
+            }
+            _ => None,
+        };
+        let u = self
+            .fusion
+            .update(&report)
+            .map_err(|e| anyhow::anyhow!("stop {}: {e}", s.stop))?;
+        let fused = self.fusion.position();
+        let fused = (fused.0 as f64, fused.1 as f64);
+        let has_fix = report.status != FixStatus::NoData;
+        self.records.push(StopRecord {
+            stop: s.stop,
+            distance_m: s.distance_m,
+            truth_m: s.truth_m,
+            odometry_m: self.odo,
+            odometry_error_m: dist(self.odo, s.truth_m),
+            odometry_drift_m: {
+                let (p0, t0) = (self.plan.start_prior_m, self.plan.stops[0].truth_m);
+                dist(
+                    (self.odo.0 - s.truth_m.0, self.odo.1 - s.truth_m.1),
+                    (p0.0 - t0.0, p0.1 - t0.1),
+                )
+            },
+            prior_m: prior,
+            prior_error_m: dist(prior, s.truth_m),
+            search_radius_m: radius,
+            map_side_m: map_px as f64 * m,
+            fix_m: has_fix.then_some((report.x_m as f64, report.y_m as f64)),
+            fix_error_m: err_of(&report),
+            fix_bound_m: has_fix.then_some(report.error_bound_m as f64),
+            fix_status: report.status.name().into(),
+            fix_path: report.path.name().into(),
+            fix_confidence: report.confidence as f64,
+            heading_error_deg: herr(s.heading_estimate_deg),
+            fix_heading_error_deg: fix_heading.map(herr),
+            headings_tried: tried,
+            accepted: u.accepted(),
+            reject_reason: u.rejected.map(|r| format!("{}: {r}", r.name())),
+            mahalanobis2: u.mahalanobis2 as f64,
+            fused_m: fused,
+            fused_error_m: dist(fused, s.truth_m),
+            fused_sigma_m: self.fusion.sigma_major_m() as f64,
+            heading_bias_deg: self.fusion.heading_bias_deg() as f64,
+            compare,
+            render_s,
+            fix_ms,
+        });
+        self.records
+            .last()
+            .ok_or_else(|| anyhow::anyhow!("no record"))
+    }
+}
+
+/// Share of `v` at most `t` (NaN when empty).
+fn share(v: &[f64], t: f64) -> f64 {
+    v.iter().filter(|&&e| e <= t).count() as f64 / v.len() as f64
+}
+
+/// The drive's summary.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Summary {
+    /// Stops.
+    pub stops: usize,
+    /// Distance driven, metres.
+    pub distance_m: f64,
+    /// Odometry alone: error at the last stop, metres.
+    pub odometry_final_error_m: f64,
+    /// Odometry alone: largest error, metres.
+    pub odometry_max_error_m: f64,
+    /// Odometry alone: drift since the start at the last stop, share of the distance.
+    pub odometry_drift_share: f64,
+    /// Fused: largest error after the first five stops, metres.
+    pub fused_max_error_after_5_m: f64,
+    /// Fused: share of stops after the first five within 1 m.
+    pub fused_within_1m_after_5: f64,
+    /// Fused: share of stops after the first five within 2 m.
+    pub fused_within_2m_after_5: f64,
+    /// Fused: mean error after the first five stops, metres.
+    pub fused_mean_error_after_5_m: f64,
+    /// Fixes with a position (status other than no-data).
+    pub fixes: usize,
+    /// Fixes within 1 m of the truth, share of all stops (no data counts as a miss).
+    pub fix_within_1m: f64,
+    /// Fixes the filter accepted.
+    pub accepted: usize,
+    /// Largest error of an accepted fix, metres.
+    pub accepted_max_error_m: f64,
+    /// Accepted fixes more than 5 m off.
+    pub accepted_over_5m: usize,
+    /// Every refused fix: stop, fix error (m) and why.
+    pub rejected: Vec<(usize, Option<f64>, String)>,
+    /// Heading comparison: share of stops with a fix within 1 m with the known heading,
+    /// the noisy one without search, and with the search (if compared).
+    pub compare_within_1m: Option<(f64, f64, f64)>,
+    /// Mean wall time of the fix, milliseconds (host).
+    pub fix_ms_mean: f64,
+    /// Mean wall time of the comparison's known-heading fix and of its heading search,
+    /// milliseconds (host).
+    pub compare_ms_mean: Option<(f64, f64)>,
+}
+
+/// Summarizes `records`.
+pub fn summarize(records: &[StopRecord]) -> Summary {
+    let after: Vec<&StopRecord> = records.iter().filter(|r| r.stop >= 5).collect();
+    let fe: Vec<f64> = after.iter().map(|r| r.fused_error_m).collect();
+    let last = records.last();
+    let acc: Vec<f64> = records
+        .iter()
+        .filter(|r| r.accepted)
+        .filter_map(|r| r.fix_error_m)
+        .collect();
+    let err_or_inf = |e: Option<f64>| e.unwrap_or(f64::INFINITY);
+    let fix_all: Vec<f64> = records.iter().map(|r| err_or_inf(r.fix_error_m)).collect();
+    let cmp: Vec<&HeadingCompare> = records.iter().filter_map(|r| r.compare.as_ref()).collect();
+    let compare_within_1m = (!cmp.is_empty()).then(|| {
+        let k: Vec<f64> = cmp.iter().map(|c| err_or_inf(c.known_error_m)).collect();
+        let n: Vec<f64> = cmp.iter().map(|c| err_or_inf(c.noisy_error_m)).collect();
+        let s: Vec<f64> = cmp.iter().map(|c| err_or_inf(c.search_error_m)).collect();
+        (share(&k, 1.0), share(&n, 1.0), share(&s, 1.0))
+    });
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    Summary {
+        stops: records.len(),
+        distance_m: last.map_or(0.0, |r| r.distance_m),
+        odometry_final_error_m: last.map_or(0.0, |r| r.odometry_error_m),
+        odometry_max_error_m: records
+            .iter()
+            .map(|r| r.odometry_error_m)
+            .fold(0.0, f64::max),
+        odometry_drift_share: last.map_or(0.0, |r| r.odometry_drift_m / r.distance_m.max(1.0)),
+        fused_max_error_after_5_m: fe.iter().copied().fold(0.0, f64::max),
+        fused_within_1m_after_5: share(&fe, 1.0),
+        fused_within_2m_after_5: share(&fe, 2.0),
+        fused_mean_error_after_5_m: mean(&fe),
+        fixes: records.iter().filter(|r| r.fix_m.is_some()).count(),
+        fix_within_1m: share(&fix_all, 1.0),
+        accepted: records.iter().filter(|r| r.accepted).count(),
+        accepted_max_error_m: acc.iter().copied().fold(0.0, f64::max),
+        accepted_over_5m: acc.iter().filter(|&&e| e > 5.0).count(),
+        rejected: records
+            .iter()
+            .filter(|r| !r.accepted)
+            .map(|r| {
+                (
+                    r.stop,
+                    r.fix_error_m,
+                    r.reject_reason.clone().unwrap_or_default(),
+                )
+            })
+            .collect(),
+        compare_within_1m,
+        fix_ms_mean: mean(&records.iter().map(|r| r.fix_ms).collect::<Vec<_>>()),
+        compare_ms_mean: (!cmp.is_empty()).then(|| {
+            (
+                mean(&cmp.iter().map(|c| c.known_ms).collect::<Vec<_>>()),
+                mean(&cmp.iter().map(|c| c.search_ms).collect::<Vec<_>>()),
+            )
+        }),
+    }
+}
+
+/// The per-stop table in Markdown.
+pub fn markdown_table(records: &[StopRecord]) -> String {
+    let mut s = String::from(
+        "| stop | driven m | odometry err m | prior err m | radius m | fix err m | bound m | status | accepted | fused err m | fused sigma m |\n|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---:|\n",
+    );
+    let f = |v: Option<f64>| v.map_or("-".to_string(), |e| format!("{e:.2}"));
+    for r in records {
+        s.push_str(&format!(
+            "| {} | {:.0} | {:.2} | {:.2} | {:.0} | {} | {} | {} | {} | {:.2} | {:.2} |\n",
+            r.stop,
+            r.distance_m,
+            r.odometry_error_m,
+            r.prior_error_m,
+            r.search_radius_m,
+            f(r.fix_error_m),
+            f(r.fix_bound_m),
+            r.fix_status,
+            if r.accepted {
+                "yes".to_string()
+            } else {
+                format!(
+                    "no ({})",
+                    r.reject_reason
+                        .as_deref()
+                        .and_then(|x| x.split(':').next())
+                        .unwrap_or("?")
+                )
+            },
+            r.fused_error_m,
+            r.fused_sigma_m
+        ));
+    }
+    s
+}
