@@ -33,7 +33,7 @@ echo "| case | command | exit | what it prints now |"
 echo "|---|---|---:|---|"
 # The device case writes to a private copy of /dev/full (a regression replaces only it).
 rm -f full; mknod full c 1 7 2>/dev/null || echo "(not root: the device case runs on a non-device)" >&2
-row "output onto a device (\`/dev/full\`, as root)" "$B map --x 3000 --y 2000 --size-m 50 --out full; ls -l full | cut -c1"
+row "output onto a device (\`/dev/full\`, as root)" "$B map --x 3000 --y 2000 --size-m 50 --out full; s=\$?; echo \"(full is still: \$(ls -l full | cut -c1))\"; exit \$s"
 row "output onto a directory" "mkdir -p adir; $B map --x 3000 --y 2000 --size-m 50 --out adir"
 row "stdout closed early (\`| head\`)" "$B help generate | head -n 1; echo \"exit statuses: \${PIPESTATUS[*]}\""
 row "stdout closed early, long output" "$B bench world | head -n 1; echo \"exit statuses: \${PIPESTATUS[*]}\""
@@ -50,7 +50,7 @@ row "NaN heading" "$B render location --heading nan --out rl"
 row "NaN sun elevation" "$B map --x 3000 --y 2000 --sun-elevation nan --out m2.png"
 row "NaN field of view" "$B render location --hfov nan --out rl"
 row "\`generate --size 1x1\`" "$B generate --preset smoke --size 1x1 --out ds1"
-row "frames too small to reproject (was \"FrameTooSmall\")" "$B render location --size 2x2 --out rl2"
+row "frames too small to reproject (was \"FrameTooSmall\")" "$B render location --size 1x1 --out rl2"
 row "bad fix setting (was \"BadConfig\")" "$B bench-localize --coarse-factor 0 --reps 1"
 for c in "demo --stops 1" "eval --seed 2 --queries 1 --json e.json" "embed --input x.npy --out y.npy" "export-tflite --out m.tflite" "budget --json b.json"; do
   row "corrupt weights (CRC), \`${c%% *}\`" "$B $c --weights corrupt.ofw"

@@ -52,7 +52,8 @@ static PRODUCT: Aligned<[u8; vectors::PRODUCT_LEN]> =
 
 /// The weight file the map product was made with (`orbfix budget --weights`; default the
 /// shipped weights), in flash like the core's own copy.
-static WEIGHTS: [u8; vectors::WEIGHTS_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/weights.bin"));
+static WEIGHTS: [u8; vectors::WEIGHTS_LEN] =
+    *include_bytes!(concat!(env!("OUT_DIR"), "/weights.bin"));
 
 const FRAME_LEN: usize = vectors::WIDTH * vectors::HEIGHT;
 

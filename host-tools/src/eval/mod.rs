@@ -558,7 +558,7 @@ pub fn load_map(png: &std::path::Path, meta: &std::path::Path) -> anyhow::Result
         )
     })?;
     let geo = GeoRef::new(m.origin_x_m as f32, m.origin_y_m as f32, m.m_per_px as f32)
-        .map_err(|e| anyhow::anyhow!("{}: bad georeference {e}", meta.display()))?;
+        .map_err(|e| anyhow::anyhow!("{}: bad georeference: {e}", meta.display()))?;
     let img = image::open(png)
         .with_context(|| format!("cannot read the map image {}", png.display()))?
         .to_luma8();
