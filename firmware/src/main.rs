@@ -2,7 +2,8 @@
 //!
 //! Runs the core's one fix ([`orbfix::fix::run`]) once on a rover stop rendered from the
 //! procedural world by the host (`orbfix budget`): four frames and their depth images, the
-//! map product and the shipped weights, all in external memory (`.psram`); then reports
+//! map product in external memory (`.psram`), and the weights it was made with (the
+//! shipped ones unless `orbfix budget --weights FILE`) in flash; then reports
 //! over semihosting in the core's result protocol ([`orbfix::fix::protocol`]) and exits
 //! through semihosting with status 0 (fix ran, stack within its region) or 1. Under
 //! `-icount shift=0` one SysTick tick is 40 instructions (see docs/flight-target.md).
@@ -28,7 +29,7 @@ use orbfix::camera::{CameraParams, RoverPose};
 use orbfix::fix::{self, protocol, Depth, FixConfig, FixInputs, FixScratch, Stage};
 use orbfix::image::ImageView;
 use orbfix::nn::input::INPUT_LEN;
-use orbfix::nn::model::{Arena, EMBED_LEN, SHIPPED_WEIGHTS};
+use orbfix::nn::model::{Arena, EMBED_LEN};
 use orbfix::reproject::{DepthView, GridSpec};
 use report::Line;
 
@@ -48,6 +49,11 @@ static DEPTHS: Aligned<[u8; vectors::DEPTHS_BYTES]> =
 #[link_section = ".psram.product"]
 static PRODUCT: Aligned<[u8; vectors::PRODUCT_LEN]> =
     Aligned(*include_bytes!(concat!(env!("OUT_DIR"), "/product.bin")));
+
+/// The weight file the map product was made with (`orbfix budget --weights`; default the
+/// shipped weights), in flash like the core's own copy.
+static WEIGHTS: [u8; vectors::WEIGHTS_LEN] =
+    *include_bytes!(concat!(env!("OUT_DIR"), "/weights.bin"));
 
 const FRAME_LEN: usize = vectors::WIDTH * vectors::HEIGHT;
 
@@ -107,7 +113,7 @@ fn inputs() -> Option<FixInputs<'static>> {
             Depth::Flat
         },
         map_product: &PRODUCT.0,
-        weights: SHIPPED_WEIGHTS,
+        weights: &WEIGHTS,
     })
 }
 

@@ -93,7 +93,7 @@ pub struct Index {
 
 fn reduce(img: &GrayImage, k: usize) -> anyhow::Result<GrayImage> {
     let (w, h) = (img.width() as usize, img.height() as usize);
-    let v = ImageView::new(img.as_raw(), w, h).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let v = ImageView::new(img.as_raw(), w, h).map_err(|e| anyhow::anyhow!("{e}"))?;
     let (wo, ho) = (w / k, h / k);
     let mut out = GrayImage::new(wo as u32, ho as u32);
     for (y, row) in out.as_mut().chunks_exact_mut(wo).enumerate() {
@@ -152,9 +152,9 @@ pub fn run(opts: &StereoBenchOptions) -> anyhow::Result<Index> {
             let id = format!("{i:03}_{}", crate::dataset::VIEW_NAMES[v]);
             let (l, r) = (&set.left.views[v], &set.right[v]);
             let lv = ImageView::new(l.as_raw(), l.width() as usize, l.height() as usize)
-                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
             let rv = ImageView::new(r.as_raw(), r.width() as usize, r.height() as usize)
-                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
             let t = Instant::now();
             let rep = rig
                 .image(

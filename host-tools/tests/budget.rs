@@ -166,6 +166,15 @@ fn writes_vectors_the_firmware_can_include() {
     )));
     assert_eq!(std::fs::read(dir.join("frames.bin")).unwrap(), v.frames);
     assert_eq!(std::fs::read(dir.join("product.bin")).unwrap(), v.product);
+    // The weights the product was made with, which the firmware's fix runs.
+    assert_eq!(
+        std::fs::read(dir.join("weights.bin")).unwrap(),
+        runner.weights
+    );
+    assert!(src.contains(&format!(
+        "pub const WEIGHTS_LEN: usize = {};",
+        runner.weights.len()
+    )));
     assert_eq!(
         std::fs::read(dir.join("depths.bin")).unwrap().len(),
         4 * 2 * 160 * 90

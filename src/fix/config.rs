@@ -83,6 +83,12 @@ pub struct SelfCheck {
     /// Embed the top-down image twice and compare the embeddings' digests; a mismatch (a
     /// damaged weight, activation or scratch bit) is the status "self-check failed".
     pub redundant_embed: bool,
+    /// Run the whole fix twice and compare the digests of everything it produced
+    /// ([`super::output_digest`]); a mismatch is the status "self-check failed". Catches a
+    /// transient upset of any scratch bit between any two stages (a flip in the top-down
+    /// image after the reprojection, which both embeddings of `redundant_embed` would read
+    /// alike, included), at twice the fix's time.
+    pub redundant_run: bool,
 }
 
 /// Every setting of the fix.
@@ -146,6 +152,7 @@ impl Default for FixConfig {
             self_check: SelfCheck {
                 verify_map_crc: false,
                 redundant_embed: false,
+                redundant_run: false,
             },
         }
     }

@@ -89,7 +89,47 @@ pub struct FixInputs<'a> {
 /// Runs the whole fix. See the module docs for the stages. Errors are for inputs the fix
 /// cannot run on (sizes, settings, damaged files, short scratch); a fix that runs but
 /// finds nothing usable is an `Ok` report with status [`FixStatus::NoData`].
+///
+/// With [`SelfCheck::redundant_run`] the whole fix runs twice on the same inputs and
+/// scratch and the two runs' [`output_digest`]s (report, top-down image, mask, coarse
+/// response, embedding) must agree; if they do not, the report is the prior's position with
+/// status [`FixStatus::SelfCheckFailed`]. The second run re-reads and re-checks everything
+/// (weights CRC, map CRC when [`SelfCheck::verify_map_crc`]); its ops are added to the
+/// first's.
 pub fn run<C: StageClock>(
+    inputs: &FixInputs<'_>,
+    cfg: &FixConfig,
+    scratch: &mut FixScratch<'_>,
+    clock: &mut C,
+) -> Result<FixReport, FixError> {
+    let first = run_once(inputs, cfg, scratch, clock)?;
+    clock.after(Stage::Refine, scratch);
+    if !cfg.self_check.redundant_run {
+        return Ok(first);
+    }
+    let n = cfg.grid.n;
+    let digest = output_digest(&first, scratch, n);
+    let mut second = run_once(inputs, cfg, scratch, clock)?;
+    clock.after(Stage::Refine, scratch);
+    let agree = output_digest(&second, scratch, n) == digest;
+    let (a, b) = (first.ops, second.ops);
+    let ops = StageOps {
+        lut_cells: a.lut_cells.saturating_add(b.lut_cells),
+        reproject_px: a.reproject_px.saturating_add(b.reproject_px),
+        embed_macs: a.embed_macs.saturating_add(b.embed_macs),
+        match_elements: a.match_elements.saturating_add(b.match_elements),
+        refine_macs: a.refine_macs.saturating_add(b.refine_macs),
+    };
+    if !agree {
+        second = FixReport::no_data(inputs.pose.x_m, inputs.pose.y_m, second.reprojection);
+        second.status = FixStatus::SelfCheckFailed;
+    }
+    second.ops = ops;
+    Ok(second)
+}
+
+/// One run of the fix (see [`run`]).
+fn run_once<C: StageClock>(
     inputs: &FixInputs<'_>,
     cfg: &FixConfig,
     scratch: &mut FixScratch<'_>,
@@ -143,6 +183,24 @@ pub fn run<C: StageClock>(
         return Err(too_small("refine_floats"));
     }
     let mut ops = StageOps::default();
+    // The fault-injection hook ([`StageClock::after`]) over the live scratch.
+    macro_rules! after {
+        ($stage:expr) => {
+            clock.after(
+                $stage,
+                &mut FixScratch {
+                    top: &mut *top,
+                    mask: &mut *mask,
+                    work: &mut *work,
+                    response: &mut *response,
+                    refine_floats: &mut **refine_floats,
+                    nn_arena: &mut **nn_arena,
+                    nn_input: &mut **nn_input,
+                    nn_embedding: &mut **nn_embedding,
+                },
+            )
+        };
+    }
 
     // 1. Reprojection.
     let reprojection = match inputs.depth {
@@ -166,6 +224,7 @@ pub fn run<C: StageClock>(
             }
         }
     };
+    after!(Stage::Reproject);
     let mut report = FixReport::no_data(inputs.pose.x_m, inputs.pose.y_m, reprojection);
     let permille = (reprojection.valid_cells * 1000 / (n * n)) as u32;
     report.coverage_permille = permille;
@@ -187,6 +246,7 @@ pub fn run<C: StageClock>(
         cfg.self_check.redundant_embed,
     );
     clock.end(Stage::NnEmbed);
+    after!(Stage::NnEmbed);
     let (zp, self_check_ok) = match embedded {
         Ok(v) => v,
         Err(FixError::Nn(NnError::TooFewValid | NnError::FlatInput)) => {
@@ -206,6 +266,7 @@ pub fn run<C: StageClock>(
     clock.begin(Stage::NnMatch);
     let windows = coarse::cosine_response(nn_embedding, zp, product.records(), response)?;
     clock.end(Stage::NnMatch);
+    after!(Stage::NnMatch);
     ops.match_elements = (windows * EMBED_LEN) as u64;
     let layout = *product.layout();
     let response = &response[..windows.min(response.len())];

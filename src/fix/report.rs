@@ -201,15 +201,15 @@ impl fmt::Display for FixError {
                 f,
                 "the map product does not fit this fix ({what}); rebuild it with `orbfix map` for these settings and weights"
             ),
-            Self::Weights(e) => write!(f, "the weight file was refused: {e:?}"),
+            Self::Weights(e) => write!(f, "the weight file was refused: {e}"),
             Self::PriorOutsideMap => write!(
                 f,
                 "the prior position lies outside the map product: use a map around the prior"
             ),
-            Self::Reproject(e) => write!(f, "reprojection failed: {e:?}"),
-            Self::Range(e) => write!(f, "range reprojection failed: {e:?}"),
-            Self::Match(e) => write!(f, "matching failed: {e:?}"),
-            Self::Nn(e) => write!(f, "the network failed: {e:?}"),
+            Self::Reproject(e) => write!(f, "reprojection failed: {e}"),
+            Self::Range(e) => write!(f, "range reprojection failed: {e}"),
+            Self::Match(e) => write!(f, "matching failed: {e}"),
+            Self::Nn(e) => write!(f, "the network failed: {e}"),
             Self::ScratchTooSmall { buffer } => write!(
                 f,
                 "the fix's '{buffer}' buffer is smaller than fix_buffer_sizes says"

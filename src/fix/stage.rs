@@ -47,6 +47,16 @@ pub trait StageClock {
     fn begin(&mut self, stage: Stage);
     /// `stage` has finished.
     fn end(&mut self, stage: Stage);
+
+    /// Fault-injection hook for tests: called once after the reprojection, the embedding
+    /// and the coarse match of every run with the scratch as the next stage will read it,
+    /// and after the refinement with the whole scratch once the run's report is made (before
+    /// [`super::run`]'s redundant-run digest reads it; [`super::SelfCheck::redundant_run`]).
+    /// A test flips bits here to show that a damaged scratch bit is detected or harmless.
+    /// The default does nothing; it is generic, so with it (every flight and host clock) the
+    /// call and its argument compile to nothing.
+    #[inline(always)]
+    fn after(&mut self, _stage: Stage, _scratch: &mut super::FixScratch<'_>) {}
 }
 
 /// A [`StageClock`] that does nothing.

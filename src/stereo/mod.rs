@@ -199,7 +199,7 @@ impl fmt::Display for StereoError {
         match *self {
             StereoError::Camera(e) => write!(
                 f,
-                "the camera parameters are not usable ({e:?}): size must be > 0, HFOV in (0, 180) deg, tilt in [-89, 89] deg, height in (0, 100] m"
+                "the camera parameters are not usable ({e}): size must be > 0, HFOV in (0, 180) deg, tilt in [-89, 89] deg, height in (0, 100] m"
             ),
             StereoError::Baseline => f.write_str(
                 "the stereo baseline must be a finite distance in (0, 10] metres; without one the pair gives no depth",

@@ -2,8 +2,9 @@
 //! in the test zone (the same renderer and pipeline as `orbfix eval`), written as
 //! `vectors.rs` (constants, `f32` as exact bit patterns, buffer sizes from
 //! `orbfix::fix::fix_buffer_sizes`), `frames.bin` (four frames, rig order, packed),
-//! `depths.bin` (their `u16` millimetre depth images, little-endian) and `product.bin` (the
-//! map product).
+//! `depths.bin` (their `u16` millimetre depth images, little-endian), `product.bin` (the
+//! map product) and `weights.bin` (the weight file the product was made with and the fix
+//! runs: `orbfix budget --weights`).
 
 use crate::eval::pipeline::{
     make_queries, map_region, observe_raw, Condition, PipelineOptions, Query, Reprojection,
@@ -32,6 +33,8 @@ pub struct Vectors {
     pub depths: Option<[Vec<u16>; 4]>,
     /// The map product.
     pub product: Vec<u8>,
+    /// The weight file (`.ofw`) the product's records were made with.
+    pub weights: Vec<u8>,
     /// How these vectors were made (for reports).
     pub source: String,
 }
@@ -91,6 +94,7 @@ impl Vectors {
             frames,
             depths: obs.depths,
             product,
+            weights: weights.to_vec(),
             source: format!(
                 "world seed {seed}, test-zone stop {index} at ({:.1}, {:.1}) m, heading {:.1} deg, prior {:.1} m off; {} x {} frames{}; map {} x {} px at {} m/px with {} CNN window records",
                 q.x_m,
@@ -165,7 +169,7 @@ impl Vectors {
              pub const GRID_N: usize = {};\npub const GRID_M_PER_PX: f32 = {};\n\
              pub const TOP: usize = {};\npub const MASK: usize = {};\n\
              pub const WORK_WORDS: usize = {};\npub const RESPONSE: usize = {};\n\
-             pub const REFINE_FLOATS: usize = {};\n",
+             pub const REFINE_FLOATS: usize = {};\npub const WEIGHTS_LEN: usize = {};\n",
             self.source,
             p.width_px,
             p.height_px,
@@ -189,10 +193,12 @@ impl Vectors {
             sz.work_words,
             sz.response,
             sz.refine_floats,
+            self.weights.len(),
         );
         write_atomic(&dir.join("frames.bin"), &self.frames)?;
         write_atomic(&dir.join("depths.bin"), &depth_bytes)?;
         write_atomic(&dir.join("product.bin"), &self.product)?;
+        write_atomic(&dir.join("weights.bin"), &self.weights)?;
         write_atomic(&dir.join("vectors.rs"), src.as_bytes())?;
         Ok(())
     }

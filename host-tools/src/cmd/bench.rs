@@ -34,13 +34,13 @@ pub struct Args {
     #[arg(long)]
     stereo: bool,
     /// stereo: baseline, metres (also the world bench's with --stereo).
-    #[arg(long, default_value_t = orbfix_host::render::stereo::DEFAULT_BASELINE_M)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f64, default_value_t = orbfix_host::render::stereo::DEFAULT_BASELINE_M)]
     baseline: f64,
     /// stereo: gain of the right camera relative to the left.
-    #[arg(long, default_value_t = 1.02)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f64, default_value_t = 1.02)]
     right_gain: f64,
     /// stereo: Gaussian sensor noise of each camera, gray levels.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::non_negative_f64, default_value_t = 1.0)]
     noise: f64,
     /// stereo: reduction of the frames before matching (1..=4).
     #[arg(long, default_value_t = 2)]

@@ -41,10 +41,10 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = Target::CortexM7)]
     pub target: Target,
     /// Clock of the flight computer for the millisecond estimates, MHz.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 100.0)]
     pub clock_mhz: f64,
     /// Cycles per instruction assumed for the millisecond estimates.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
     pub cpi: f64,
     /// Where to write the budget as JSON.
     #[arg(long)]
@@ -75,6 +75,8 @@ pub struct Args {
     /// `allow-panic` feature, and the budget records `panic_free: false` and where).
     #[arg(long)]
     pub allow_panic: bool,
+    #[command(flatten)]
+    pub weights: orbfix_host::nn::weights_file::WeightsArg,
     /// Give up on QEMU after this many seconds.
     #[arg(long, default_value_t = 300)]
     pub qemu_timeout_s: u64,
@@ -247,6 +249,7 @@ pub fn run(args: Args) -> Result<()> {
         "--cpi must be a positive number, got {}",
         args.cpi
     );
+    let weights = args.weights.bytes()?;
     let repo = find_repo(args.repo.clone())?;
     let target_dir = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
@@ -266,7 +269,7 @@ pub fn run(args: Args) -> Result<()> {
         reprojection: args.reprojection,
         ..PipelineOptions::default()
     };
-    let runner = FixRunner::shipped(cfg);
+    let runner = FixRunner { weights, cfg };
     let env_file = toolchain_env(&repo, args.toolchain_env.clone())?;
     let est = Estimate {
         target: args.target.name().to_string(),

@@ -27,17 +27,9 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let weights = match &a.weights {
-        Some(p) => std::fs::read(p).with_context(|| {
-            format!(
-                "cannot read the weight file {} (give an existing .ofw file)",
-                p.display()
-            )
-        })?,
-        None => orbfix::nn::model::SHIPPED_WEIGHTS.to_vec(),
-    };
+    let weights = orbfix_host::nn::weights_file::load_bytes(a.weights.as_deref())?;
     let net = SiameseNet::from_bytes(&weights)
-        .map_err(|e| anyhow::anyhow!("the core rejects the weight file: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("the core rejects the weight file: {e}"))?;
     let what = a.input.display().to_string();
     let bytes = std::fs::read(&a.input).with_context(|| format!("cannot read {what}"))?;
     let x = read_i8(&bytes, &what)?;
@@ -66,7 +58,7 @@ pub fn run(a: Args) -> Result<()> {
                 let dst: &mut [i8; EMBED_LEN] =
                     dst.try_into().context("internal: embedding length")?;
                 net.embed(input, arena, dst)
-                    .map_err(|e| anyhow::anyhow!("embedding failed: {e:?}"))?;
+                    .map_err(|e| anyhow::anyhow!("embedding failed: {e}"))?;
                 bar.inc(1);
                 Ok(())
             },

@@ -60,7 +60,7 @@ pub struct Args {
     pub reprojection: Reprojection,
     /// Stereo depth noise of the range path: sigma = K * z^2 metres at depth z metres
     /// (e.g. 0.001: 10 cm at 10 m); 0 = exact depths (millimetre quantized).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::non_negative_f64, default_value_t = 0.0)]
     pub depth_noise_k: f64,
     /// Range path: largest column stride (1 = every pixel; up to 16: rows near the mast
     /// read every s-th pixel, at most half a cell apart on flat ground; 4 = the fix's default).
@@ -157,18 +157,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 
 /// The bytes of a weight file, validated (`None`: the shipped weights).
 pub fn load_weights(path: Option<&Path>) -> anyhow::Result<Vec<u8>> {
-    let bytes = match path {
-        None => orbfix::nn::model::SHIPPED_WEIGHTS.to_vec(),
-        Some(p) => std::fs::read(p)
-            .with_context(|| format!("cannot read the weight file {}", p.display()))?,
-    };
-    orbfix::nn::model::SiameseNet::from_bytes(&bytes).map_err(|e| {
-        anyhow::anyhow!(
-            "{} is not a usable weight file ({e}); write one with `orbfix quantize`",
-            path.map_or("the shipped weights".into(), |p| p.display().to_string())
-        )
-    })?;
-    Ok(bytes)
+    orbfix_host::nn::weights_file::load_bytes(path)
 }
 
 /// One line per matcher.

@@ -26,16 +26,16 @@ pub struct Args {
     #[arg(long, allow_negative_numbers = true)]
     pub y: f64,
     /// Side of the square region, metres.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub size_m: f64,
     /// Metres per pixel of both rasters (0.25 = the top-down image's resolution).
-    #[arg(long, default_value_t = 0.25)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.25)]
     pub m_per_px: f64,
     /// Sun elevation of the orthoimage, degrees above the horizon.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 30.0)]
     pub sun_elevation: f64,
     /// Sun azimuth of the orthoimage, degrees clockwise from north (towards the sun).
-    #[arg(long, default_value_t = 135.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 135.0)]
     pub sun_azimuth: f64,
     /// Output DEM GeoTIFF (f32 heights, metres, at the pixel centres).
     #[arg(long)]
@@ -75,7 +75,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     bar.set_message(format!("rendering the {n} x {n} orthoimage"));
     let g32 = geo
         .to_georef()
-        .map_err(|e| anyhow::anyhow!("georeference for the renderer: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("georeference for the renderer: {e}"))?;
     let img = render_ortho(
         &world,
         &g32,

@@ -2,7 +2,6 @@
 //! (`orbfix_host::tflite::export`, `docs/interop.md`).
 
 use anyhow::{Context, Result};
-use orbfix::nn::model::SiameseNet;
 use orbfix_host::nn::qmodel::HostQModel;
 use std::path::PathBuf;
 
@@ -27,24 +26,12 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let (bytes, name) = match &a.weights {
-        Some(p) => (
-            std::fs::read(p).with_context(|| {
-                format!(
-                    "cannot read the weight file {} (give an existing .ofw file)",
-                    p.display()
-                )
-            })?,
-            p.display().to_string(),
-        ),
-        None => (
-            orbfix::nn::model::SHIPPED_WEIGHTS.to_vec(),
-            "weights/matcher-v1.ofw (shipped)".to_string(),
-        ),
-    };
     // Only what the core accepts is exported.
-    SiameseNet::from_bytes(&bytes)
-        .map_err(|e| anyhow::anyhow!("the core rejects the weight file {name}: {e:?}"))?;
+    let bytes = orbfix_host::nn::weights_file::load_bytes(a.weights.as_deref())?;
+    let name = a.weights.as_ref().map_or_else(
+        || "weights/matcher-v1.ofw (shipped)".to_string(),
+        |p| p.display().to_string(),
+    );
     let q = HostQModel::from_bytes(&bytes).with_context(|| format!("reading {name}"))?;
     let description = format!("orbfix int8 matcher trunk from {name}");
     let model = orbfix_host::tflite::export::export(&q, &description, a.allow_inexact_multipliers)

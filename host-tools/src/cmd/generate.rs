@@ -54,10 +54,10 @@ pub struct Args {
     #[arg(long)]
     stereo: bool,
     /// Stereo baseline, metres (with --stereo).
-    #[arg(long, default_value_t = orbfix_host::render::stereo::DEFAULT_BASELINE_M)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f64, default_value_t = orbfix_host::render::stereo::DEFAULT_BASELINE_M)]
     baseline: f64,
     /// Gain of the right camera relative to the left, e.g. 1.02 (with --stereo).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f64, default_value_t = 1.0)]
     right_gain: f64,
     /// Gaussian sensor noise, gray levels (standard deviation; 0 = none; each camera draws
     /// its own).

@@ -28,7 +28,7 @@ pub struct Args {
     #[arg(long, requires = "top")]
     pub mask: Option<PathBuf>,
     /// Metres per pixel of --top.
-    #[arg(long, default_value_t = 0.25)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f32, default_value_t = 0.25)]
     pub top_m_per_px: f32,
     /// Map image (8-bit gray PNG, north-up).
     #[arg(long)]

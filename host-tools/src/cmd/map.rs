@@ -24,16 +24,16 @@ pub struct Args {
     #[arg(long, allow_negative_numbers = true)]
     pub y: f64,
     /// Side of the region, metres (300 = the study's search region).
-    #[arg(long, default_value_t = 300.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 300.0)]
     pub size_m: f64,
     /// Metres per pixel (0.25 = the top-down image's resolution).
-    #[arg(long, default_value_t = 0.25)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.25)]
     pub m_per_px: f64,
     /// Sun elevation, degrees above the horizon.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 30.0)]
     pub sun_elevation: f64,
     /// Sun azimuth, degrees clockwise from north (towards the sun).
-    #[arg(long, default_value_t = 135.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 135.0)]
     pub sun_azimuth: f64,
     /// Output PNG; the georeference goes next to it with the extension .json.
     #[arg(long)]

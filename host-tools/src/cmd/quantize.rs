@@ -59,19 +59,15 @@ pub struct Args {
 fn rederive(input: &std::path::Path, out: &std::path::Path) -> Result<()> {
     use orbfix_host::nn::multiplier::rederive_multipliers;
     use orbfix_host::nn::qmodel::HostQModel;
-    let bytes = std::fs::read(input).with_context(|| {
-        format!(
-            "cannot read the weight file {} (give an existing .ofw file with --weights)",
-            input.display()
-        )
-    })?;
+    // Checked by the core first (CRC, structure, bounds): a damaged file is refused as such.
+    let bytes = orbfix_host::nn::weights_file::load_bytes(Some(input))?;
     let mut q =
         HostQModel::from_bytes(&bytes).with_context(|| format!("reading {}", input.display()))?;
     let channels: usize = q.layers.iter().map(|l| l.out_c).sum();
     let changed = rederive_multipliers(&mut q);
     let bytes = q.to_bytes();
     SiameseNet::from_bytes(&bytes).map_err(|e| {
-        anyhow::anyhow!("the core rejects the re-derived file ({e:?}); it was not written")
+        anyhow::anyhow!("the core rejects the re-derived file ({e}); it was not written")
     })?;
     if let Some(dir) = out.parent() {
         if !dir.as_os_str().is_empty() {

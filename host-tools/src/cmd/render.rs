@@ -34,7 +34,7 @@ struct Common {
     #[arg(long, value_enum, default_value = "lunar-lambert")]
     photometry: Phot,
     /// Gaussian sensor noise, gray levels.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::non_negative_f64, default_value_t = 0.0)]
     noise: f64,
 }
 
@@ -71,13 +71,13 @@ enum What {
         #[arg(long, default_value = "640x360")]
         size: String,
         /// Horizontal field of view, degrees (< 180).
-        #[arg(long, default_value_t = 90.0)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = 90.0)]
         hfov: f32,
         /// Satellite crop side, pixels.
         #[arg(long, default_value_t = 200)]
         sat_px: u32,
         /// Satellite crop resolution, metres per pixel.
-        #[arg(long, default_value_t = 0.25)]
+        #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f64, default_value_t = 0.25)]
         sat_m_per_px: f64,
         /// Also write a PLY point cloud (cloud.ply) from the range images.
         #[arg(long)]

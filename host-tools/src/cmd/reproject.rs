@@ -36,10 +36,10 @@ pub struct Args {
     #[arg(long)]
     size: Option<usize>,
     /// Grid resolution, metres per cell (default: the satellite crop's, e.g. 0.25).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f32)]
     resolution: Option<f32>,
     /// Ground distance beyond which cells are "no data", metres (default: none).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f32)]
     max_range: Option<f32>,
     /// Equalize the brightness of 1 m range rings (core `equalize_rings`) before writing:
     /// removes the oblique-view brightening with distance that the orbital view lacks.
@@ -135,7 +135,7 @@ pub fn top_down(
         if !dropped {
             *f = Some(
                 ImageView::new(img.as_raw(), w, h)
-                    .map_err(|e| anyhow::anyhow!("{} view of {}: {e:?}", NAMES[k], row.id))?,
+                    .map_err(|e| anyhow::anyhow!("{} view of {}: {e}", NAMES[k], row.id))?,
             );
         }
     }
@@ -145,14 +145,14 @@ pub fn top_down(
     let mut extra = vec![Tap::EMPTY; DEFAULT_EXTRA.max(cells_n / 8)];
     let t0 = Instant::now();
     let lut = Lut::build(&mut cells, &mut extra, &params, &pose, grid, w)
-        .map_err(|e| anyhow::anyhow!("building the lookup table: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("building the lookup table: {e}"))?;
     let t_build = t0.elapsed();
     let mut out = vec![0u8; cells_n];
     let mut mask = vec![0u8; cells_n];
     let t1 = Instant::now();
     let report = lut
         .apply(&frames, &mut out, &mut mask)
-        .map_err(|e| anyhow::anyhow!("reprojecting: {e:?}"))?;
+        .map_err(|e| anyhow::anyhow!("reprojecting: {e}"))?;
     let t_apply = t1.elapsed();
     Ok(TopDown {
         n,

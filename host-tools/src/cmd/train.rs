@@ -24,16 +24,16 @@ pub struct Args {
     #[arg(long, default_value_t = 32)]
     pub batch: usize,
     /// Peak learning rate (AdamW, cosine decay).
-    #[arg(long, default_value_t = 2e-3)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f64, default_value_t = 2e-3)]
     pub lr: f64,
     /// InfoNCE temperature.
-    #[arg(long, default_value_t = 0.07)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f64, default_value_t = 0.07)]
     pub temperature: f64,
     /// Probability that the rover's sun differs from the map's.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::probability_f64, default_value_t = 0.5)]
     pub cross_sun_p: f64,
     /// Probability of one missing view.
-    #[arg(long, default_value_t = 0.15)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::probability_f64, default_value_t = 0.15)]
     pub missing_view_p: f64,
     /// Validation anchors.
     #[arg(long, default_value_t = 128)]
@@ -59,13 +59,13 @@ pub struct Args {
     #[arg(long)]
     pub init: Option<PathBuf>,
     /// Real set: largest offset of the positive window's centre from the truth, metres.
-    #[arg(long, default_value_t = 2.5)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f64, default_value_t = 2.5)]
     pub pos_radius_m: f64,
     /// Real set: smallest offset of the hard negative window's centre, metres.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::non_negative_f64, default_value_t = 5.0)]
     pub neg_min_m: f64,
     /// Real set: largest offset of the hard negative window's centre, metres (<= 25).
-    #[arg(long, default_value_t = 25.0)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::positive_f64, default_value_t = 25.0)]
     pub neg_max_m: f64,
 }
 

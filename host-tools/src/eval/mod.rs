@@ -95,6 +95,9 @@ pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
         "l1" => Box::new(L1),
         "l2" => Box::new(L2),
         "ncc" => Box::new(Ncc::default()),
+        _ if fix_config_by_name(name).is_some() => bail!(
+            "'{name}' is the whole fix, which runs from the rover's frames (`orbfix eval --matcher {name}`, `orbfix demo`); this command matches a top-down image with a baseline: ncc, ncc-dist, l1, l2 (options -dist, -eq, -hpN, -rN)"
+        ),
         _ => bail!(
             "unknown matcher '{name}': choose one of {} (baseline options: -dist, -eq, -hpN, -rN)",
             MATCHERS.join(", ")
@@ -502,7 +505,7 @@ pub fn describe(e: &orbfix::localize::LocalizeError) -> String {
         E::Match(M::FeaturelessTemplate) => {
             "the top-down image has no contrast (all valid pixels equal): check the frames".into()
         }
-        E::Match(m) => format!("matcher error {m:?}"),
+        E::Match(m) => m.to_string(),
         E::ResolutionMismatch {
             map_m_per_px,
             top_m_per_px,
@@ -555,7 +558,7 @@ pub fn load_map(png: &std::path::Path, meta: &std::path::Path) -> anyhow::Result
         )
     })?;
     let geo = GeoRef::new(m.origin_x_m as f32, m.origin_y_m as f32, m.m_per_px as f32)
-        .map_err(|e| anyhow::anyhow!("{}: bad georeference {e}", meta.display()))?;
+        .map_err(|e| anyhow::anyhow!("{}: bad georeference: {e}", meta.display()))?;
     let img = image::open(png)
         .with_context(|| format!("cannot read the map image {}", png.display()))?
         .to_luma8();
@@ -578,19 +581,13 @@ pub fn load_map(png: &std::path::Path, meta: &std::path::Path) -> anyhow::Result
     })
 }
 
-/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+/// Writes `bytes` to `path` atomically, only to a regular file or `-` (the one
+/// implementation: [`crate::fsutil::write_atomic`]); creates the parent folder first.
 pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let dir = path.parent().unwrap_or(std::path::Path::new("."));
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path)
-        .with_context(|| format!("cannot move {} to {}", tmp.display(), path.display()))?;
-    Ok(())
+    if let Some(dir) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    crate::fsutil::write_atomic(path, bytes)
 }
 
 /// Saves a gray or RGB image as PNG atomically.

@@ -27,6 +27,12 @@ impl WeightsArg {
         Ok(CnnMatcher::new(self.load()?))
     }
 
+    /// The validated bytes of `--weights` (or of the shipped weights), for the core's fix,
+    /// the map product and the firmware's vectors.
+    pub fn bytes(&self) -> anyhow::Result<Vec<u8>> {
+        load_bytes(self.weights.as_deref())
+    }
+
     /// What to print as the weights' name: the file, or "shipped".
     pub fn describe(&self) -> String {
         match &self.weights {
@@ -34,6 +40,27 @@ impl WeightsArg {
             None => "shipped (weights/matcher-v1.ofw)".into(),
         }
     }
+}
+
+/// The bytes of the weight file at `path` (`None`: the shipped weights), validated by the
+/// core's parser (CRC first, then structure and quantization bounds). The error names the
+/// file and what is wrong with it.
+pub fn load_bytes(path: Option<&Path>) -> anyhow::Result<Vec<u8>> {
+    let Some(path) = path else {
+        SiameseNet::from_bytes(SHIPPED_WEIGHTS)
+            .context("the shipped weights do not validate (a damaged build?)")?;
+        return Ok(SHIPPED_WEIGHTS.to_vec());
+    };
+    let bytes = std::fs::read(path).with_context(|| {
+        format!(
+            "cannot read the weight file {} (missing or unreadable?)",
+            path.display()
+        )
+    })?;
+    if let Err(e) = SiameseNet::from_bytes(&bytes) {
+        anyhow::bail!("{}: {e}", path.display());
+    }
+    Ok(bytes)
 }
 
 /// Reads and validates the weight file at `path` (`None`: the shipped weights). The bytes
@@ -44,13 +71,7 @@ pub fn load_net(path: Option<&Path>) -> anyhow::Result<SiameseNet<'static>> {
         return SiameseNet::from_bytes(SHIPPED_WEIGHTS)
             .context("the shipped weights do not validate (a damaged build?)");
     };
-    let bytes = std::fs::read(path).with_context(|| {
-        format!(
-            "cannot read the weight file {} (missing or unreadable?)",
-            path.display()
-        )
-    })?;
-    let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+    let bytes: &'static [u8] = Box::leak(load_bytes(Some(path))?.into_boxed_slice());
     SiameseNet::from_bytes(bytes).with_context(|| format!("weight file {}", path.display()))
 }
 
