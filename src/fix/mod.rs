@@ -35,12 +35,14 @@ pub mod refine;
 mod report;
 mod scratch;
 mod stage;
+mod stereo_depth;
 
 pub use config::{ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck};
 pub use digest::{fnv1a, fnv1a_start, output_digest};
 pub use report::{FixError, FixPath, FixReport, FixStatus, ReprojectionSummary, StageOps};
 pub use scratch::{fix_buffer_sizes, FixBufferSizes, FixScratch, RefineLayout, LUT_BAND_ROWS};
 pub use stage::{NoClock, Stage, StageClock};
+pub use stereo_depth::{stereo_work_words, StereoConfig};
 
 use crate::camera::{CameraParams, RoverPose};
 use crate::image::ImageView;
@@ -63,6 +65,10 @@ pub enum Depth<'a> {
     /// Depth images (`u16`, [`crate::reproject::RangeOptions::depth_scale_m`] per unit, 0 =
     /// no depth), one per frame, e.g. from an external stereo engine.
     Images([Option<DepthView<'a>>; 4]),
+    /// The right images of the stereo pairs (the frames are the left images), one per
+    /// frame: the fix computes depth itself (stage [`Stage::Stereo`], settings
+    /// [`FixConfig::stereo`]). A view without a usable pair gets no depth.
+    Stereo([Option<ImageView<'a>>; 4]),
 }
 
 /// Everything the fix reads. Frames, depth, the map product and the weights are borrowed
@@ -160,7 +166,11 @@ pub fn run<C: StageClock>(
                 range: true,
                 status: r.status,
                 valid_cells: r.valid_cells,
+                stereo: None,
             }
+        }
+        Depth::Stereo(rights) => {
+            stereo_depth::reproject_stereo(inputs, &rights, cfg, work, top, mask, clock, &mut ops)?
         }
     };
     let mut report = FixReport::no_data(inputs.pose.x_m, inputs.pose.y_m, reprojection);
@@ -486,5 +496,6 @@ fn reproject_flat<C: StageClock>(
         range: false,
         status: report.status,
         valid_cells: report.valid_cells,
+        stereo: None,
     })
 }

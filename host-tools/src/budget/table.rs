@@ -132,6 +132,8 @@ pub fn stage_units(stage: &str, r: &FixReport) -> Option<(u64, &'static str)> {
     let o = &r.ops;
     match s {
         Stage::LutBuild => (o.lut_cells > 0).then_some((o.lut_cells, "grid cell")),
+        Stage::Stereo => (o.stereo_pixel_disparities > 0)
+            .then_some((o.stereo_pixel_disparities, "pixel-disparity evaluated")),
         Stage::Reproject => Some((
             o.reproject_px,
             if r.reprojection.range {

@@ -28,6 +28,17 @@ pub struct FixOutcome {
     pub seconds: f64,
 }
 
+/// The depth a fix gets ([`FixRunner::run_with`]).
+#[derive(Clone, Copy, Debug)]
+pub enum FixDepth<'a> {
+    /// None: flat ground.
+    Flat,
+    /// Depth images (`u16` millimetres, frame size), e.g. the renderer's truth.
+    Images(&'a [Vec<u16>; 4]),
+    /// The right images of the stereo pairs: the fix computes depth itself.
+    Stereo([Option<ImageView<'a>>; 4]),
+}
+
 /// A fix configuration with its weights: runs [`orbfix::fix::run`].
 #[derive(Clone, Debug)]
 pub struct FixRunner {
@@ -56,6 +67,26 @@ impl FixRunner {
         depths: Option<&[Vec<u16>; 4]>,
         product: &[u8],
     ) -> anyhow::Result<FixOutcome> {
+        let depth = match depths {
+            Some(d) => FixDepth::Images(d),
+            None => FixDepth::Flat,
+        };
+        self.run_with(params, pose, frames, depth, product)
+    }
+
+    /// As [`FixRunner::run`] with any depth source, the stereo pairs included.
+    pub fn run_with(
+        &self,
+        params: &CameraParams,
+        pose: &RoverPose,
+        frames: [Option<ImageView<'_>>; 4],
+        depth: FixDepth<'_>,
+        product: &[u8],
+    ) -> anyhow::Result<FixOutcome> {
+        let depths = match depth {
+            FixDepth::Images(d) => Some(d),
+            _ => None,
+        };
         let meta = *MapProduct::parse(product, CrcCheck::Skip)
             .map_err(|e| anyhow::anyhow!("{e}"))?
             .meta();
@@ -74,9 +105,10 @@ impl FixRunner {
             params: *params,
             pose: *pose,
             frames,
-            depth: match depths {
-                Some(_) => Depth::Images(dviews),
-                None => Depth::Flat,
+            depth: match depth {
+                FixDepth::Images(_) => Depth::Images(dviews),
+                FixDepth::Stereo(rights) => Depth::Stereo(rights),
+                FixDepth::Flat => Depth::Flat,
             },
             map_product: product,
             weights: &self.weights,
