@@ -22,7 +22,13 @@ fn main() {
              `orbfix budget --vectors-dir DIR` once and set ORBFIX_VECTORS_DIR=DIR."
         )
         });
-    for name in ["vectors.rs", "frames.bin", "depths.bin", "product.bin"] {
+    for name in [
+        "vectors.rs",
+        "frames.bin",
+        "depths.bin",
+        "rights.bin",
+        "product.bin",
+    ] {
         let src = dir.join(name);
         fs::copy(&src, out.join(name)).unwrap_or_else(|e| {
             panic!(

@@ -20,7 +20,9 @@ case "$DEPTH" in
   none|lut) DEPTH=none; REP=lut ;;
   *) echo "fix-results.sh: depth must be stereo, truth or none (got '$DEPTH')" >&2; exit 2 ;;
 esac
-OUT=out/fix-results-$REP
+# $ORBFIX_RESULTS_DIR / $ORBFIX_RESULTS_MD: other folder and page (e.g. for a shorter run).
+OUT="${ORBFIX_RESULTS_DIR:-out/fix-results-$REP}"
+MD="${ORBFIX_RESULTS_MD:-docs/fix-results-$REP.md}"
 mkdir -p "$OUT"
 BIN="${ORBFIX_BIN:-}"
 if [ -z "$BIN" ]; then
@@ -37,6 +39,6 @@ for seed in $SEEDS; do
       --depth "$DEPTH" --json "$f" --quiet
   done
 done
-"$BIN" fix-report --dir "$OUT" --out "docs/fix-results-$REP.md" \
+"$BIN" fix-report --dir "$OUT" --out "$MD" \
   --title "The one fix: accuracy on unseen world seeds ($DEPTH depth)" \
   --command "bash scripts/fix-results.sh $STOPS \"$SEEDS\" $DEPTH"

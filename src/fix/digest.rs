@@ -98,6 +98,7 @@ pub fn output_digest(r: &FixReport, scratch: &FixScratch<'_>, n: usize) -> u32 {
         o.refine_macs,
         o.stereo_pixel_disparities,
         o.stereo_cost_updates,
+        o.stereo_px,
         o.stereo_depth_px,
     ] {
         h = fnv1a(h, &v.to_le_bytes());

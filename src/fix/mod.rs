@@ -4,9 +4,12 @@
 //! `orbfix budget` times on the Cortex-M7; every stage lives here once.
 //!
 //! Stages ([`Stage`], timed through a [`StageClock`]):
-//! 1. **reprojection** (`lut_build` + `reproject`): the four frames into a north-up
-//!    `n x n` top-down image and mask around the prior, with depth when the rover has it
-//!    ([`Depth::Images`]: [`crate::reproject::reproject_range`], relief-faithful), else on
+//! 1. **reprojection** (`lut_build` + `reproject`, and `stereo` with [`Depth::Stereo`]):
+//!    the four frames into a north-up `n x n` top-down image and mask around the prior,
+//!    with depth when the rover has it ([`Depth::Images`] from an external stereo engine:
+//!    [`crate::reproject::reproject_range`], relief-faithful; or [`Depth::Stereo`]: the
+//!    core's own stereo matcher on the pairs, band by band, each band placed at once,
+//!    [`stereo_depth`]), else on
 //!    flat ground through the integer lookup table built band by band
 //!    ([`crate::reproject::Lut::build_rows`], [`LUT_BAND_ROWS`] rows per band);
 //! 2. **`nn_embed`**: the CNN's 64 x 64 int8 input ([`crate::nn::input::prepare_input`])
@@ -35,7 +38,7 @@ pub mod refine;
 mod report;
 mod scratch;
 mod stage;
-mod stereo_depth;
+pub mod stereo_depth;
 
 pub use config::{ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck};
 pub use digest::{fnv1a, fnv1a_start, output_digest};

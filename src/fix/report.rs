@@ -101,6 +101,9 @@ pub struct StageOps {
     pub stereo_pixel_disparities: u64,
     /// Stereo: column-cost updates (set-up rows of every band included).
     pub stereo_cost_updates: u64,
+    /// Stereo: working-size pixels of the bands matched (four views, rows below the
+    /// horizon).
+    pub stereo_px: u64,
     /// Stereo: working-size pixels that got a depth.
     pub stereo_depth_px: u64,
 }

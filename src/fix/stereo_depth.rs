@@ -211,6 +211,7 @@ pub(super) fn reproject_stereo<C: StageClock>(
             ops.stereo_pixel_disparities += rep.pixel_disparities;
             ops.stereo_cost_updates += rep.cost_updates;
             ops.stereo_depth_px += rep.valid;
+            ops.stereo_px += ((y1 - y0) * w) as u64;
             let depth = DepthBand {
                 data: out,
                 width: w,
