@@ -153,12 +153,11 @@ fn bands_of_any_height_give_the_same_fix() {
     assert_eq!(a.top, b.top);
     assert_eq!(a.mask, b.mask);
     assert_eq!((a.report.x_m, a.report.y_m), (b.report.x_m, b.report.y_m));
-    assert_eq!(
-        a.report.ops.stereo_pixel_disparities,
-        b.report.ops.stereo_pixel_disparities
-    );
-    // Smaller bands repeat more set-up rows.
+    assert_eq!(a.report.ops.stereo_px, b.report.ops.stereo_px);
+    assert_eq!(a.report.ops.stereo_depth_px, b.report.ops.stereo_depth_px);
+    // Smaller bands repeat more set-up rows (and match the one-row margins of more bands).
     assert!(b.report.ops.stereo_cost_updates > a.report.ops.stereo_cost_updates);
+    assert!(b.report.ops.stereo_pixel_disparities > a.report.ops.stereo_pixel_disparities);
     // Smaller bands need a smaller work area.
     let meta = *MapProduct::parse(&s.product, CrcCheck::Skip)
         .unwrap()
