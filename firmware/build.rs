@@ -26,6 +26,7 @@ fn main() {
         "vectors.rs",
         "frames.bin",
         "depths.bin",
+        "rights.bin",
         "product.bin",
         "weights.bin",
     ] {

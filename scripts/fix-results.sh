@@ -1,16 +1,28 @@
 #!/usr/bin/env bash
 # Accuracy of the one fix (`orbfix::fix::run`, default FixConfig) and of the bare CNN on world
-# seeds never used in development: STOPS stops per seed and condition in the test zone, range
-# reprojection (truth depth), same sun and cross sun; then docs/fix-results.md.
-# Usage: bash scripts/fix-results.sh [STOPS] [SEEDS] [REPROJECTION]   ($ORBFIX_BIN: a built orbfix)
-#   defaults: 100 "2 3 4" range   (about 25 minutes per 300 stops on 2 cores, release)
+# seeds never used in development: STOPS stops per seed and condition in the test zone, same
+# sun and cross sun, with the depth source DEPTH; then docs/fix-results-NAME.md.
+# Usage: bash scripts/fix-results.sh [STOPS] [SEEDS] [DEPTH]   ($ORBFIX_BIN: a built orbfix)
+#   DEPTH (or $ORBFIX_DEPTH): stereo (the rover's own stereo pairs, matched by the core inside
+#   the fix), truth (the renderer's exact depth; also spelled range) or none (flat ground;
+#   also spelled lut). Results in out/fix-results-NAME, NAME = stereo, range (truth) or lut.
+#   defaults: 100 "2 3 4" truth   (about 25 minutes per 300 stops on 2 cores with truth depth;
+#   stereo renders the right views too and takes longer)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/env.sh
 STOPS="${1:-100}"
 SEEDS="${2:-2 3 4}"
-REP="${3:-range}"
-OUT=out/fix-results-$REP
+DEPTH="${3:-${ORBFIX_DEPTH:-truth}}"
+case "$DEPTH" in
+  stereo) REP=stereo ;;
+  truth|range) DEPTH=truth; REP=range ;;
+  none|lut) DEPTH=none; REP=lut ;;
+  *) echo "fix-results.sh: depth must be stereo, truth or none (got '$DEPTH')" >&2; exit 2 ;;
+esac
+# $ORBFIX_RESULTS_DIR / $ORBFIX_RESULTS_MD: other folder and page (e.g. for a shorter run).
+OUT="${ORBFIX_RESULTS_DIR:-out/fix-results-$REP}"
+MD="${ORBFIX_RESULTS_MD:-docs/fix-results-$REP.md}"
 mkdir -p "$OUT"
 BIN="${ORBFIX_BIN:-}"
 if [ -z "$BIN" ]; then
@@ -24,9 +36,9 @@ for seed in $SEEDS; do
     # Resumable: a finished (seed, condition) is not run again.
     [ -s "$f" ] && continue
     "$BIN" eval --seed "$seed" --queries "$STOPS" --matcher fix,cnn --condition "$cond" \
-      --reprojection "$REP" --json "$f" --quiet
+      --depth "$DEPTH" --json "$f" --quiet
   done
 done
-"$BIN" fix-report --dir "$OUT" --out "docs/fix-results-$REP.md" \
-  --title "The one fix: accuracy on unseen world seeds ($REP reprojection)" \
-  --command "bash scripts/fix-results.sh $STOPS \"$SEEDS\" $REP"
+"$BIN" fix-report --dir "$OUT" --out "$MD" \
+  --title "The one fix: accuracy on unseen world seeds ($DEPTH depth)" \
+  --command "bash scripts/fix-results.sh $STOPS \"$SEEDS\" $DEPTH"

@@ -1,9 +1,10 @@
 //! orbfix example flight firmware (Cortex-M7, QEMU mps2-an500).
 //!
 //! Runs the core's one fix ([`orbfix::fix::run`]) once on a rover stop rendered from the
-//! procedural world by the host (`orbfix budget`): four frames and their depth images, the
-//! map product in external memory (`.psram`), and the weights it was made with (the
-//! shipped ones unless `orbfix budget --weights FILE`) in flash; then reports
+//! procedural world by the host (`orbfix budget`): four frames and their depth images (or
+//! the right images of their stereo pairs: the fix then computes depth itself), the map
+//! product in external memory (`.psram`), and the weights it was made with (the shipped
+//! ones unless `orbfix budget --weights FILE`) in flash; then reports
 //! over semihosting in the core's result protocol ([`orbfix::fix::protocol`]) and exits
 //! through semihosting with status 0 (fix ran, stack within its region) or 1. Under
 //! `-icount shift=0` one SysTick tick is 40 instructions (see docs/flight-target.md).
@@ -44,6 +45,10 @@ static FRAMES: [u8; vectors::FRAMES_LEN] = *include_bytes!(concat!(env!("OUT_DIR
 #[link_section = ".psram.depths"]
 static DEPTHS: Aligned<[u8; vectors::DEPTHS_BYTES]> =
     Aligned(*include_bytes!(concat!(env!("OUT_DIR"), "/depths.bin")));
+/// The right images of the stereo pairs, packed like the frames (external memory: inputs;
+/// one frame of zeros when the vectors have no pairs).
+#[link_section = ".psram.rights"]
+static RIGHTS: [u8; vectors::RIGHTS_LEN] = *include_bytes!(concat!(env!("OUT_DIR"), "/rights.bin"));
 /// The map product: map pixels, georeference and CNN window records (external memory:
 /// inputs; 4-byte aligned so every record's embedding is).
 #[link_section = ".psram.product"]
@@ -107,7 +112,13 @@ fn inputs() -> Option<FixInputs<'static>> {
         params,
         pose,
         frames: [frame(0), frame(1), frame(2), frame(3)],
-        depth: if vectors::HAS_DEPTH {
+        depth: if vectors::HAS_STEREO {
+            let right = |i: usize| {
+                let data = RIGHTS.get(i * FRAME_LEN..(i + 1) * FRAME_LEN)?;
+                ImageView::new(data, vectors::WIDTH, vectors::HEIGHT).ok()
+            };
+            Depth::Stereo([right(0), right(1), right(2), right(3)])
+        } else if vectors::HAS_DEPTH {
             Depth::Images([depth(0), depth(1), depth(2), depth(3)])
         } else {
             Depth::Flat
@@ -124,10 +135,11 @@ fn main() -> ! {
         .str(" ")
         .u64(protocol::VERSION as u64)
         .send();
-    let cfg = FixConfig {
+    let mut cfg = FixConfig {
         grid: GridSpec::new(vectors::GRID_N, vectors::GRID_M_PER_PX),
         ..FixConfig::default()
     };
+    cfg.stereo.matcher.baseline_m = vectors::STEREO_BASELINE_M;
     // Safety: `main` runs once and is the only code that touches these statics (the
     // SysTick and HardFault handlers do not), so these are the only references to them.
     let mut scratch = unsafe {

@@ -123,6 +123,7 @@ pub fn fix_error(e: &FixError) -> &'static str {
         FixError::PriorOutsideMap => "prior outside the map",
         FixError::Reproject(_) => "reprojection failed",
         FixError::Range(_) => "range reprojection failed",
+        FixError::Stereo(_) => "stereo settings refused",
         FixError::Match(_) => "matching failed",
         FixError::Nn(_) => "network failed",
         FixError::ScratchTooSmall { buffer } => buffer,

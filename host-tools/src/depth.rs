@@ -74,3 +74,61 @@ pub fn depth_images(set: &ViewSet, noise: Option<StereoNoise>) -> anyhow::Result
     }
     Ok(out)
 }
+
+/// Depth images of four stereo pairs computed by the core's own matcher
+/// ([`orbfix::stereo::StereoRig`], the same code the fix runs as its `stereo` stage), at
+/// the frames' size: each frame pixel takes the depth of the working-size pixel it lies in
+/// (what the fix's banded stereo stage places). A pair the matcher cannot use (black or
+/// saturated image, sizes differ) gives an all-zero image ("no depth"); settings it refuses
+/// are an error.
+pub fn stereo_depth_images(
+    left: &[image::GrayImage; 4],
+    right: &[image::GrayImage; 4],
+    params: &orbfix::camera::CameraParams,
+    stereo: &orbfix::stereo::StereoParams,
+) -> anyhow::Result<[Vec<u16>; 4]> {
+    use orbfix::image::ImageView;
+    use orbfix::stereo::{StereoError, StereoRig};
+    let rig = StereoRig::new(params, stereo)
+        .map_err(|e| anyhow::anyhow!("the stereo settings were refused: {e}"))?;
+    let s = rig.buffer_sizes();
+    let (wo, ho) = rig.output_size();
+    let (w, h) = (params.width_px as usize, params.height_px as usize);
+    let k = usize::from(stereo.downsample);
+    let mut bytes = vec![0u8; s.bytes];
+    let mut words = vec![0u16; s.words];
+    let mut small = vec![0u16; wo * ho];
+    let mut out: [Vec<u16>; 4] = Default::default();
+    for (o, (l, r)) in out.iter_mut().zip(left.iter().zip(right)) {
+        *o = vec![0u16; w * h];
+        fn view(g: &image::GrayImage) -> anyhow::Result<ImageView<'_>> {
+            ImageView::new(g.as_raw(), g.width() as usize, g.height() as usize)
+                .map_err(|e| anyhow::anyhow!("bad stereo image: {e}"))
+        }
+        let (lv, rv) = (view(l)?, view(r)?);
+        match rig.image(
+            &lv,
+            Some(&rv),
+            ho,
+            false,
+            &mut bytes,
+            &mut words,
+            &mut small,
+        ) {
+            Ok(_) => {}
+            Err(
+                StereoError::MissingRight
+                | StereoError::Frame { .. }
+                | StereoError::PairSize { .. }
+                | StereoError::FrameSize { .. },
+            ) => continue,
+            Err(e) => anyhow::bail!("stereo matching failed: {e}"),
+        }
+        for y in 0..(ho * k).min(h) {
+            for x in 0..(wo * k).min(w) {
+                o[y * w + x] = small[(y / k) * wo + x / k];
+            }
+        }
+    }
+    Ok(out)
+}

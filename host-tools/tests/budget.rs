@@ -45,7 +45,7 @@ fn report_text(results: &[(String, String)]) -> String {
 fn parses_a_report_and_rejects_broken_ones() {
     let r = budget::parse_report(&report_text(&[("digest".into(), "0x12345678".into())])).unwrap();
     assert_eq!(r.stages.len(), Stage::ALL.len());
-    assert_eq!(r.stages[2], ("nn_embed".to_string(), 300));
+    assert_eq!(r.stages[3], ("nn_embed".to_string(), 400));
     assert_eq!(r.total_ticks, 1600);
     assert_eq!(r.stack_peak_bytes, 3000);
     assert_eq!(r.stack_region_bytes, 32768);
@@ -118,15 +118,15 @@ fn world_stop_runs_the_fix_deterministically_and_compares_bit_exactly() {
     assert!(ok.bit_exact && ok.panic_free, "{:?}", ok.mismatches);
     assert_eq!(ok.vectors, "world");
     assert_eq!(ok.total_instructions, 1600 * budget::INSTRUCTIONS_PER_TICK);
-    assert_eq!(ok.stages["nn_embed"].instructions, 12_000);
+    assert_eq!(ok.stages["nn_embed"].instructions, 16_000);
     assert_eq!(ok.stages["nn_embed"].unit.as_deref(), Some("MAC"));
-    assert!((ok.stages["nn_embed"].ms - 0.12).abs() < 1e-9);
+    assert!((ok.stages["nn_embed"].ms - 0.16).abs() < 1e-9);
     assert_eq!(ok.working_ram_bytes, 2000 + 3000);
     assert_eq!(ok.working_total_bytes, 2000 + 3000 + 4000);
     assert!(ok.stops[0].error_m.is_finite());
     let md = ok.markdown("orbfix budget --json x.json");
     assert!(
-        md.contains("| nn_embed | 12,000 |") && md.contains("bit_exact: true"),
+        md.contains("| nn_embed | 16,000 |") && md.contains("bit_exact: true"),
         "{md}"
     );
 

@@ -1,6 +1,7 @@
 //! Settings of the fix ([`FixConfig`]): one value names the exact configuration an accuracy
 //! or budget figure was produced with.
 
+use super::stereo_depth::StereoConfig;
 use super::FixError;
 use crate::localize::MAX_CANDIDATES;
 use crate::map_product::RefinePlane;
@@ -113,6 +114,8 @@ pub struct FixConfig {
     pub bounds: ErrorBounds,
     /// Self-checks.
     pub self_check: SelfCheck,
+    /// The fix's own stereo stage (used with [`super::Depth::Stereo`]).
+    pub stereo: StereoConfig,
 }
 
 impl Default for FixConfig {
@@ -154,6 +157,7 @@ impl Default for FixConfig {
                 redundant_embed: false,
                 redundant_run: false,
             },
+            stereo: StereoConfig::default(),
         }
     }
 }
@@ -162,6 +166,7 @@ impl FixConfig {
     /// Checks every setting; the error names the first bad one.
     pub fn validate(&self) -> Result<(), FixError> {
         self.grid.validate()?;
+        self.stereo.validate()?;
         let bad = |field| Err(FixError::BadConfig { field });
         let r = &self.refine;
         if r.peaks == 0 || r.peaks > MAX_CANDIDATES {

@@ -68,6 +68,13 @@ pub fn output_digest(r: &FixReport, scratch: &FixScratch<'_>, n: usize) -> u32 {
             status_code(s[2]),
             status_code(s[3]),
             r.reprojection.valid_cells as u32,
+            r.reprojection.stereo.map_or(0, |s| {
+                s.iter()
+                    .enumerate()
+                    .map(|(i, e)| u32::from(e.is_some()) << (i + 1))
+                    .sum::<u32>()
+                    | 1
+            }),
             r.coverage_permille,
         ],
     );
@@ -89,6 +96,10 @@ pub fn output_digest(r: &FixReport, scratch: &FixScratch<'_>, n: usize) -> u32 {
         o.embed_macs,
         o.match_elements,
         o.refine_macs,
+        o.stereo_pixel_disparities,
+        o.stereo_cost_updates,
+        o.stereo_px,
+        o.stereo_depth_px,
     ] {
         h = fnv1a(h, &v.to_le_bytes());
     }

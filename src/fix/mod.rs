@@ -4,9 +4,12 @@
 //! `orbfix budget` times on the Cortex-M7; every stage lives here once.
 //!
 //! Stages ([`Stage`], timed through a [`StageClock`]):
-//! 1. **reprojection** (`lut_build` + `reproject`): the four frames into a north-up
-//!    `n x n` top-down image and mask around the prior, with depth when the rover has it
-//!    ([`Depth::Images`]: [`crate::reproject::reproject_range`], relief-faithful), else on
+//! 1. **reprojection** (`lut_build` + `reproject`, and `stereo` with [`Depth::Stereo`]):
+//!    the four frames into a north-up `n x n` top-down image and mask around the prior,
+//!    with depth when the rover has it ([`Depth::Images`] from an external stereo engine:
+//!    [`crate::reproject::reproject_range`], relief-faithful; or [`Depth::Stereo`]: the
+//!    core's own stereo matcher on the pairs, band by band, each band placed at once,
+//!    [`stereo_depth`]), else on
 //!    flat ground through the integer lookup table built band by band
 //!    ([`crate::reproject::Lut::build_rows`], [`LUT_BAND_ROWS`] rows per band);
 //! 2. **`nn_embed`**: the CNN's 64 x 64 int8 input ([`crate::nn::input::prepare_input`])
@@ -36,6 +39,7 @@ pub mod refine;
 mod report;
 mod scratch;
 mod stage;
+pub mod stereo_depth;
 
 pub use config::{ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck};
 pub use digest::{fnv1a, fnv1a_start, output_digest};
@@ -43,6 +47,7 @@ pub use heading::{run_heading_search, HeadingFix, HeadingSearch, MAX_HEADINGS};
 pub use report::{FixError, FixPath, FixReport, FixStatus, ReprojectionSummary, StageOps};
 pub use scratch::{fix_buffer_sizes, FixBufferSizes, FixScratch, RefineLayout, LUT_BAND_ROWS};
 pub use stage::{NoClock, Stage, StageClock};
+pub use stereo_depth::{stereo_work_words, StereoConfig};
 
 use crate::camera::{CameraParams, RoverPose};
 use crate::image::ImageView;
@@ -65,6 +70,10 @@ pub enum Depth<'a> {
     /// Depth images (`u16`, [`crate::reproject::RangeOptions::depth_scale_m`] per unit, 0 =
     /// no depth), one per frame, e.g. from an external stereo engine.
     Images([Option<DepthView<'a>>; 4]),
+    /// The right images of the stereo pairs (the frames are the left images), one per
+    /// frame: the fix computes depth itself (stage [`Stage::Stereo`], settings
+    /// [`FixConfig::stereo`]). A view without a usable pair gets no depth.
+    Stereo([Option<ImageView<'a>>; 4]),
 }
 
 /// Everything the fix reads. Frames, depth, the map product and the weights are borrowed
@@ -119,6 +128,12 @@ pub fn run<C: StageClock>(
         embed_macs: a.embed_macs.saturating_add(b.embed_macs),
         match_elements: a.match_elements.saturating_add(b.match_elements),
         refine_macs: a.refine_macs.saturating_add(b.refine_macs),
+        stereo_pixel_disparities: a
+            .stereo_pixel_disparities
+            .saturating_add(b.stereo_pixel_disparities),
+        stereo_cost_updates: a.stereo_cost_updates.saturating_add(b.stereo_cost_updates),
+        stereo_px: a.stereo_px.saturating_add(b.stereo_px),
+        stereo_depth_px: a.stereo_depth_px.saturating_add(b.stereo_depth_px),
     };
     if !agree {
         second = FixReport::no_data(inputs.pose.x_m, inputs.pose.y_m, second.reprojection);
@@ -221,7 +236,11 @@ fn run_once<C: StageClock>(
                 range: true,
                 status: r.status,
                 valid_cells: r.valid_cells,
+                stereo: None,
             }
+        }
+        Depth::Stereo(rights) => {
+            stereo_depth::reproject_stereo(inputs, &rights, cfg, work, top, mask, clock, &mut ops)?
         }
     };
     after!(Stage::Reproject);
@@ -549,5 +568,6 @@ fn reproject_flat<C: StageClock>(
         range: false,
         status: report.status,
         valid_cells: report.valid_cells,
+        stereo: None,
     })
 }

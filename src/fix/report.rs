@@ -6,6 +6,7 @@ use crate::matcher::MatchError;
 use crate::nn::weights::WeightsError;
 use crate::nn::NnError;
 use crate::reproject::{FrameStatus, RangeError, ReprojectError};
+use crate::stereo::StereoError;
 use core::fmt;
 
 /// The verdict on a fix.
@@ -76,6 +77,10 @@ pub struct ReprojectionSummary {
     pub status: [FrameStatus; 4],
     /// Top-down cells with data.
     pub valid_cells: usize,
+    /// With on-board stereo ([`super::Depth::Stereo`]): per view, why its pair gave no
+    /// depth (`None`: it did, or the frame itself was unusable, see `status`); `None` for
+    /// the other depth sources.
+    pub stereo: Option<[Option<StereoError>; 4]>,
 }
 
 /// Work done per stage (the units of the budget's per-unit rates).
@@ -92,6 +97,15 @@ pub struct StageOps {
     pub match_elements: u64,
     /// NCC multiply-accumulates and downsampled pixels of the refinement.
     pub refine_macs: u64,
+    /// Stereo: pixel-disparities of the winner-take-all (columns x each row's disparities).
+    pub stereo_pixel_disparities: u64,
+    /// Stereo: column-cost updates (set-up rows of every band included).
+    pub stereo_cost_updates: u64,
+    /// Stereo: working-size pixels of the bands matched (four views, rows below the
+    /// horizon).
+    pub stereo_px: u64,
+    /// Stereo: working-size pixels that got a depth.
+    pub stereo_depth_px: u64,
 }
 
 /// The result of a fix.
@@ -181,6 +195,8 @@ pub enum FixError {
     Reproject(ReprojectError),
     /// Range reprojection set-up or depth sizes.
     Range(RangeError),
+    /// The stereo matcher refused its settings (e.g. a baseline of 0 or NaN).
+    Stereo(StereoError),
     /// A matcher or downsampling set-up error.
     Match(MatchError),
     /// A network error other than an unusable input.
@@ -208,6 +224,7 @@ impl fmt::Display for FixError {
             ),
             Self::Reproject(e) => write!(f, "reprojection failed: {e}"),
             Self::Range(e) => write!(f, "range reprojection failed: {e}"),
+            Self::Stereo(e) => write!(f, "on-board stereo cannot run: {e}"),
             Self::Match(e) => write!(f, "matching failed: {e}"),
             Self::Nn(e) => write!(f, "the network failed: {e}"),
             Self::ScratchTooSmall { buffer } => write!(
@@ -238,6 +255,11 @@ impl From<ReprojectError> for FixError {
 impl From<RangeError> for FixError {
     fn from(e: RangeError) -> Self {
         Self::Range(e)
+    }
+}
+impl From<StereoError> for FixError {
+    fn from(e: StereoError) -> Self {
+        Self::Stereo(e)
     }
 }
 impl From<MatchError> for FixError {

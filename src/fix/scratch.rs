@@ -131,7 +131,9 @@ pub fn fix_buffer_sizes(
     Ok(FixBufferSizes {
         top: n * n,
         mask: n * n,
-        work_words: range_scratch_len(n).max(lut_words).max(refine.words(n)),
+        work_words: (range_scratch_len(n) + super::stereo_depth::stereo_work_words(&cfg.stereo))
+            .max(lut_words)
+            .max(refine.words(n)),
         response: cols * rows,
         refine_floats: floats,
     })

@@ -7,6 +7,9 @@ pub enum Stage {
     /// Reprojection lookup table for the pose prior (flat-ground path; set-up floats, in
     /// bands of grid rows).
     LutBuild,
+    /// Depth from the rover's own stereo pairs (on-board stereo only: block matching band by
+    /// band, [`crate::stereo`]).
+    Stereo,
     /// The four frames into the top-down image and mask: integer bilinear sampling through
     /// the table (flat path) or forward projection with depth (range path).
     Reproject,
@@ -20,8 +23,9 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in run order.
-    pub const ALL: [Stage; 5] = [
+    pub const ALL: [Stage; 6] = [
         Stage::LutBuild,
+        Stage::Stereo,
         Stage::Reproject,
         Stage::NnEmbed,
         Stage::NnMatch,
@@ -32,6 +36,7 @@ impl Stage {
     pub fn name(self) -> &'static str {
         match self {
             Stage::LutBuild => "lut_build",
+            Stage::Stereo => "stereo",
             Stage::Reproject => "reproject",
             Stage::NnEmbed => "nn_embed",
             Stage::NnMatch => "nn_match",

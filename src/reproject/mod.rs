@@ -35,8 +35,9 @@ mod rings;
 pub use apply::{classify_frame, ApplyReport, FrameStatus, BLACK_LEVEL, SATURATED_LEVEL};
 pub use lut::{BuildStats, Lut};
 pub use range::{
-    range_scratch_bytes, range_scratch_len, reproject_range, DepthView, RangeAccumulator,
-    RangeError, RangeOptions, RangeReport, DEFAULT_DEPTH_SCALE_M, DEFAULT_FILL_MIN, POS_FRAC_BITS,
+    range_scratch_bytes, range_scratch_len, reproject_range, DepthBand, DepthView,
+    RangeAccumulator, RangeError, RangeOptions, RangeReport, DEFAULT_DEPTH_SCALE_M,
+    DEFAULT_FILL_MIN, POS_FRAC_BITS,
 };
 pub use rings::{equalize_rings, MAX_RINGS};
 

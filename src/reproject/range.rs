@@ -308,6 +308,42 @@ struct Limits {
     range_lim: i64,
 }
 
+/// Per-view set-up of the row placement (fixed-point limits, camera axes, column steps).
+struct ViewSetup {
+    lim: Limits,
+    height_band: bool,
+    range_lim: Option<i64>,
+    /// Camera right, down, forward axes in the world.
+    ax: [[f32; 3]; 3],
+    /// Focal length, pixels.
+    f: f32,
+    /// Normalized x of the first column's centre.
+    u0: f32,
+    /// Principal point row, pixels.
+    cy: f32,
+    /// Steps per column (east cells, south cells, metres up; Q32 per depth unit, `f32`).
+    b: [f32; 3],
+    /// The same, rounded.
+    b_q: [i32; 3],
+    scale_xy: f32,
+    scale_z: f32,
+}
+
+/// A band of a depth image at a reduced size, for [`RangeAccumulator::add_rows`].
+#[derive(Clone, Copy, Debug)]
+pub struct DepthBand<'a> {
+    /// Depths (units of [`RangeOptions::depth_scale_m`], 0 = no depth), row-major,
+    /// `width` per row, starting at reduced row `first_row`.
+    pub data: &'a [u16],
+    /// Reduced width, pixels (at least the frame width / `factor`, rounded up).
+    pub width: usize,
+    /// Reduced row of the band's first row.
+    pub first_row: usize,
+    /// Reduction factor (1..): frame pixel `(i, j)` reads reduced pixel `(i / factor, j /
+    /// factor)`.
+    pub factor: usize,
+}
+
 /// Places one row, every `stride`-th pixel from the first: the `k`-th pixel read has the
 /// ray `ray + k * step` (`step` is already `stride` columns; Q32 per depth unit: cells
 /// east, cells south, metres up). Returns the pixels accumulated. `HEIGHT` / `RANGE` switch the
@@ -501,8 +537,85 @@ impl<'s> RangeAccumulator<'s> {
             }
             return Ok(st);
         };
+        let setup = self.setup(view)?;
+        let h = self.params.height_px as usize;
+        for j in 0..h {
+            let (Some(frow), Some(drow)) = (frame.row(j), d.row(j)) else {
+                break;
+            };
+            self.place(&setup, j, frow, drow)?;
+        }
+        Ok(st)
+    }
+
+    /// Records `view`'s frame status (and that it has no depth) without placing pixels:
+    /// for callers that place a view row by row ([`RangeAccumulator::add_rows`]).
+    pub fn set_view_status(&mut self, view: View, status: FrameStatus, depth_missing: bool) {
+        let vi = view.index();
+        if let Some(s) = self.report.status.get_mut(vi) {
+            *s = status;
+        }
+        if let Some(m) = self.report.depth_missing.get_mut(vi) {
+            *m = depth_missing;
+        }
+    }
+
+    /// Places rows `rows` of `view`'s `frame` (the rig's size) with depth from `band`, a
+    /// depth image at the size reduced by `band.factor` (e.g. on-board stereo at half
+    /// resolution): full-resolution pixel `(i, j)` takes the depth of reduced pixel
+    /// `(i / factor, j / factor)`, which must lie in the band. `row_buf` (at least the
+    /// frame width, `u16`) holds the expanded depth row. Does not classify the frame (see
+    /// [`RangeAccumulator::set_view_status`]); the result of a row does not depend on how
+    /// the rows are cut into calls.
+    pub fn add_rows(
+        &mut self,
+        view: View,
+        frame: &ImageView<'_>,
+        rows: core::ops::Range<usize>,
+        band: &DepthBand<'_>,
+        row_buf: &mut [u16],
+    ) -> Result<(), RangeError> {
+        self.check_sizes(view, frame, None)?;
+        let (w, h) = (
+            self.params.width_px as usize,
+            self.params.height_px as usize,
+        );
+        let k = band.factor.max(1);
+        let bad = RangeError::DepthSize {
+            view: view.index(),
+            expected: (w.div_ceil(k), h.div_ceil(k)),
+            got: (
+                band.width,
+                band.data.len().checked_div(band.width).unwrap_or(0),
+            ),
+        };
+        if band.width * k < w || row_buf.len() < w {
+            return Err(bad);
+        }
+        let setup = self.setup(view)?;
+        for j in rows.start..rows.end.min(h) {
+            let Some(frow) = frame.row(j) else { break };
+            let y = (j / k).checked_sub(band.first_row).ok_or(bad)?;
+            let src = band
+                .data
+                .get(y * band.width..(y + 1) * band.width)
+                .ok_or(bad)?;
+            let drow = if k == 1 {
+                src.get(..w).ok_or(bad)?
+            } else {
+                for (c, o) in row_buf.chunks_mut(k).zip(src) {
+                    c.fill(*o);
+                }
+                row_buf.get(..w).ok_or(bad)?
+            };
+            self.place(&setup, j, frow, drow)?;
+        }
+        Ok(())
+    }
+
+    /// Fixed-point set-up of one view (limits, camera axes, column steps).
+    fn setup(&self, view: View) -> Result<ViewSetup, RangeError> {
         let (params, grid, opts) = (&self.params, &self.grid, &self.opts);
-        let (w, h) = (params.width_px as usize, params.height_px as usize);
         let n = grid.n;
         // Limits in the fixed-point units.
         let max_depth_units = {
@@ -555,73 +668,90 @@ impl<'s> RangeAccumulator<'s> {
         let bx = ax_r[0] / f * scale_xy;
         let by = -ax_r[1] / f * scale_xy;
         let bz = ax_r[2] / f * scale_z;
-        let (bx_q, by_q, bz_q) = (to_q(bx)?, to_q(by)?, to_q(bz)?);
-        let scratch = &mut *self.scratch;
-        let (mut used_all, mut read_all) = (0u64, 0u64);
-        for j in 0..h {
-            let (Some(frow), Some(drow)) = (frame.row(j), d.row(j)) else {
-                break;
-            };
-            let vv = (j as f32 + 0.5 - cam.cy) / f;
-            let a = [
-                ax_f[0] + ax_d[0] * vv + ax_r[0] * u0,
-                ax_f[1] + ax_d[1] * vv + ax_r[1] * u0,
-                ax_f[2] + ax_d[2] * vv + ax_r[2] * u0,
-            ];
-            let ax = a[0] * scale_xy;
-            let ay = -a[1] * scale_xy;
-            let az = a[2] * scale_z;
-            // The ray at both ends of the row must stay inside RAY_LIMIT (so i32 steps
-            // cannot overflow: the rounding drift over a row is below `w` units).
-            let end = w as f32;
-            for (a0, b0) in [(ax, bx), (ay, by), (az, bz)] {
-                if libm::fabsf(a0) + libm::fabsf(b0) * end >= RAY_LIMIT {
-                    return Err(RangeError::Overflow);
-                }
+        let b_q = [to_q(bx)?, to_q(by)?, to_q(bz)?];
+        Ok(ViewSetup {
+            lim,
+            height_band,
+            range_lim,
+            ax: [ax_r, ax_d, ax_f],
+            f,
+            u0,
+            cy: cam.cy,
+            b: [bx, by, bz],
+            b_q,
+            scale_xy,
+            scale_z,
+        })
+    }
+
+    /// Places frame row `j` (`frow`, its depths `drow`, both the frame's width).
+    fn place(
+        &mut self,
+        s: &ViewSetup,
+        j: usize,
+        frow: &[u8],
+        drow: &[u16],
+    ) -> Result<(), RangeError> {
+        let (params, grid, opts) = (&self.params, &self.grid, &self.opts);
+        let w = params.width_px as usize;
+        let [ax_r, ax_d, ax_f] = s.ax;
+        let (f, u0) = (s.f, s.u0);
+        let [bx, by, bz] = s.b;
+        let [bx_q, by_q, bz_q] = s.b_q;
+        let vv = (j as f32 + 0.5 - s.cy) / f;
+        let a = [
+            ax_f[0] + ax_d[0] * vv + ax_r[0] * u0,
+            ax_f[1] + ax_d[1] * vv + ax_r[1] * u0,
+            ax_f[2] + ax_d[2] * vv + ax_r[2] * u0,
+        ];
+        let ax = a[0] * s.scale_xy;
+        let ay = -a[1] * s.scale_xy;
+        let az = a[2] * s.scale_z;
+        // The ray at both ends of the row must stay inside RAY_LIMIT (so i32 steps
+        // cannot overflow: the rounding drift over a row is below `w` units).
+        let end = w as f32;
+        for (a0, b0) in [(ax, bx), (ay, by), (az, bz)] {
+            if libm::fabsf(a0) + libm::fabsf(b0) * end >= RAY_LIMIT {
+                return Err(RangeError::Overflow);
             }
-            let ray = [to_q(ax)?, to_q(ay)?, to_q(az)?];
-            // Column stride from the row's flat-ground depth at its centre column.
-            let mut stride = 1usize;
-            if opts.max_column_stride > 1 {
-                let up_mid = a[2] + ax_r[2] * (0.5 * w as f32 - 0.5) / f;
-                if up_mid < 0.0 {
-                    let t = params.height_m / -up_mid;
-                    let s = libm::floorf(grid.m_per_px * f / (2.0 * t));
-                    if s >= 2.0 {
-                        stride = (s as usize).min(usize::from(opts.max_column_stride));
-                    }
-                }
-            }
-            stride = stride.min(w.max(1));
-            let k = stride as i32;
-            let step = [
-                bx_q.wrapping_mul(k),
-                by_q.wrapping_mul(k),
-                bz_q.wrapping_mul(k),
-            ];
-            read_all += w.div_ceil(stride.max(1)) as u64;
-            // Monomorphized per limit set so the default (no height band, no range limit)
-            // loop keeps its state in registers.
-            let used = match (height_band, range_lim) {
-                (false, None) => {
-                    place_row::<false, false>(frow, drow, stride, ray, step, &lim, scratch)
-                }
-                (true, None) => {
-                    place_row::<true, false>(frow, drow, stride, ray, step, &lim, scratch)
-                }
-                (false, Some(_)) => {
-                    place_row::<false, true>(frow, drow, stride, ray, step, &lim, scratch)
-                }
-                (true, Some(_)) => {
-                    place_row::<true, true>(frow, drow, stride, ray, step, &lim, scratch)
-                }
-            };
-            used_all += u64::from(used);
         }
-        self.report.pixels_read += read_all;
-        self.report.points_used += used_all;
-        self.report.points_dropped += read_all - used_all;
-        Ok(st)
+        let ray = [to_q(ax)?, to_q(ay)?, to_q(az)?];
+        // Column stride from the row's flat-ground depth at its centre column.
+        let mut stride = 1usize;
+        if opts.max_column_stride > 1 {
+            let up_mid = a[2] + ax_r[2] * (0.5 * w as f32 - 0.5) / f;
+            if up_mid < 0.0 {
+                let t = params.height_m / -up_mid;
+                let st = libm::floorf(grid.m_per_px * f / (2.0 * t));
+                if st >= 2.0 {
+                    stride = (st as usize).min(usize::from(opts.max_column_stride));
+                }
+            }
+        }
+        stride = stride.min(w.max(1));
+        let k = stride as i32;
+        let step = [
+            bx_q.wrapping_mul(k),
+            by_q.wrapping_mul(k),
+            bz_q.wrapping_mul(k),
+        ];
+        let read = w.div_ceil(stride.max(1)) as u64;
+        let lim = &s.lim;
+        let scratch = &mut *self.scratch;
+        // Monomorphized per limit set so the default (no height band, no range limit)
+        // loop keeps its state in registers.
+        let used = match (s.height_band, s.range_lim) {
+            (false, None) => place_row::<false, false>(frow, drow, stride, ray, step, lim, scratch),
+            (true, None) => place_row::<true, false>(frow, drow, stride, ray, step, lim, scratch),
+            (false, Some(_)) => {
+                place_row::<false, true>(frow, drow, stride, ray, step, lim, scratch)
+            }
+            (true, Some(_)) => place_row::<true, true>(frow, drow, stride, ray, step, lim, scratch),
+        };
+        self.report.pixels_read += read;
+        self.report.points_used += u64::from(used);
+        self.report.points_dropped += read - u64::from(used);
+        Ok(())
     }
 
     /// Averages the samples per cell into `out` (`n * n` gray levels, north-up, 0 where no

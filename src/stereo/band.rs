@@ -465,10 +465,11 @@ pub(crate) fn run(
     let p = &rig.params;
     let r = usize::from(p.radius_px);
     let ring = 2 * r + 2;
-    let (ds_l, rest) = bytes.split_at_mut(3 * w);
-    let (ds_r, rest) = rest.split_at_mut(3 * w);
-    let (f_l, rest) = rest.split_at_mut(ring * w);
-    let (f_r, _) = rest.split_at_mut(ring * w);
+    // Lengths were checked above; `min` keeps the splits free of panic paths.
+    let (ds_l, rest) = bytes.split_at_mut((3 * w).min(bytes.len()));
+    let (ds_r, rest) = rest.split_at_mut((3 * w).min(rest.len()));
+    let (f_l, rest) = rest.split_at_mut((ring * w).min(rest.len()));
+    let (f_r, _) = rest.split_at_mut((ring * w).min(rest.len()));
     let mut rings = Rings {
         ds: [ds_l, ds_r],
         filt: [f_l, f_r],
@@ -497,11 +498,11 @@ pub(crate) fn run(
     if dn > rig.max_disp {
         return Err(StereoError::TooSmall);
     }
-    let (colsum, rest) = words.split_at_mut(w * dn);
-    let (agg, rest) = rest.split_at_mut(dn);
-    let (rbc, rest) = rest.split_at_mut(w);
-    let (rbd, rest) = rest.split_at_mut(w);
-    let (disp, _) = rest.split_at_mut(3 * w);
+    let (colsum, rest) = words.split_at_mut((w * dn).min(words.len()));
+    let (agg, rest) = rest.split_at_mut(dn.min(rest.len()));
+    let (rbc, rest) = rest.split_at_mut(w.min(rest.len()));
+    let (rbd, rest) = rest.split_at_mut(w.min(rest.len()));
+    let (disp, _) = rest.split_at_mut((3 * w).min(rest.len()));
     let mut disp_tag = [0usize; 3];
     let oc = out_cost(p.prefilter_cap);
     let ri = r as isize;

@@ -88,8 +88,11 @@ impl RowRanges {
         let d_hi = self.fb * s_hi / (self.h - self.above);
         // Leave the columns a window needs: at most width - 2r - 2.
         let cap = self.width.saturating_sub(2 * self.radius + 2) as f32;
-        let lo = (libm::floorf(d_lo) - 1.0).clamp(0.0, cap);
-        let hi = (libm::ceilf(d_hi) + 1.0).clamp(lo + 2.0, cap.max(lo + 2.0));
+        // `max` / `min` rather than `clamp`: no assertion (panic path) in the flight build.
+        let lo = (libm::floorf(d_lo) - 1.0).max(0.0).min(cap);
+        let hi = (libm::ceilf(d_hi) + 1.0)
+            .max(lo + 2.0)
+            .min(cap.max(lo + 2.0));
         Some((lo as usize, hi as usize))
     }
 

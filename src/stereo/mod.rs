@@ -294,6 +294,24 @@ pub fn stereo_buffer_sizes(
     Ok(StereoRig::new(camera, params)?.buffer_sizes())
 }
 
+/// Upper bound of the scratch of any rig with a working width of at most `width` pixels,
+/// aggregation radius `radius_px` and at most `max_disparities` disparities (for callers
+/// that size buffers before they know the rig: [`crate::fix::fix_buffer_sizes`]); the
+/// output fields give `width` and 0 rows.
+pub fn stereo_buffer_bound(
+    width: usize,
+    radius_px: u8,
+    max_disparities: usize,
+) -> StereoBufferSizes {
+    StereoBufferSizes {
+        bytes: band::bytes_len(width, usize::from(radius_px)),
+        words: band::words_len(width, max_disparities),
+        out_width: width,
+        out_height: 0,
+        max_disparities,
+    }
+}
+
 /// A checked stereo rig: the camera, the matcher settings and what follows from them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StereoRig {

@@ -42,6 +42,12 @@ pub struct StageBudget {
     /// Instructions per work item.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub instructions_per_unit: Option<f64>,
+    /// Stage `stereo`: working-size pixels matched (four views, rows below the horizon).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pixels: Option<u64>,
+    /// Stage `stereo`: instructions per pixel matched.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instructions_per_pixel: Option<f64>,
 }
 
 /// One measured stop.
@@ -120,6 +126,12 @@ pub struct Budget {
     pub vectors: String,
     /// The exact configuration of the core's fix that was measured.
     pub config: String,
+    /// Depth source of the stops: `stereo` (the fix's own stereo stage on rendered pairs),
+    /// `truth` (the renderer's exact depth images) or `none` (flat ground).
+    pub depth: String,
+    /// Bytes of the work area the stereo stage uses after the range accumulator
+    /// (`orbfix::fix::stereo_work_words`; 0 without stereo).
+    pub stereo_work_bytes: u64,
     /// Guest instructions per SysTick tick.
     pub instructions_per_tick: u64,
     /// Every stop.
@@ -132,6 +144,8 @@ pub fn stage_units(stage: &str, r: &FixReport) -> Option<(u64, &'static str)> {
     let o = &r.ops;
     match s {
         Stage::LutBuild => (o.lut_cells > 0).then_some((o.lut_cells, "grid cell")),
+        Stage::Stereo => (o.stereo_pixel_disparities > 0)
+            .then_some((o.stereo_pixel_disparities, "pixel-disparity evaluated")),
         Stage::Reproject => Some((
             o.reproject_px,
             if r.reprojection.range {
@@ -169,6 +183,9 @@ pub fn stop_budget(
                 units: units.map(|u| u.0),
                 unit: units.map(|u| u.1.to_string()),
                 instructions_per_unit: units.map(|u| insn as f64 / u.0.max(1) as f64),
+                pixels: (name == "stereo").then_some(host.ops.stereo_px),
+                instructions_per_pixel: (name == "stereo")
+                    .then(|| insn as f64 / host.ops.stereo_px.max(1) as f64),
             },
         );
     }
@@ -241,6 +258,8 @@ pub fn assemble(
             .collect(),
         vectors: "world".to_string(),
         config,
+        depth: "truth".to_string(),
+        stereo_work_bytes: 0,
         instructions_per_tick: INSTRUCTIONS_PER_TICK,
         stops,
     }
@@ -285,13 +304,18 @@ impl Budget {
              a CPI of **{}** cycles per instruction (QEMU counts instructions, not cycles; see \
              docs/flight-target.md). The firmware runs the core's one fix, `orbfix::fix::run`, \
              the same function `orbfix eval` and `orbfix demo` run, on {} stops rendered from \
-             the procedural world's test zone (relief, the eval's renderer, truth depth images \
-             as an external stereo engine would give them); the host runs the same code on the \
-             same inputs for the bit-exactness check. Configuration: `{}`.\n\n",
+             the procedural world's test zone (relief, the eval's renderer, {}); the host runs \
+             the same code on the same inputs for the bit-exactness check. Configuration: \
+             `{}`.\n\n",
             self.target,
             self.clock_mhz,
             self.cpi,
             self.stops.len(),
+            match self.depth.as_str() {
+                "stereo" => "the four stereo pairs, from which the fix computes depth itself in its `stereo` stage",
+                "none" => "no depth: flat ground",
+                _ => "truth depth images as an external stereo engine would give them",
+            },
             self.config
         ));
         m.push_str("## Time (largest over the stops)\n\n");
@@ -317,6 +341,24 @@ impl Budget {
             thousands(self.total_instructions),
             self.total_ms
         ));
+        if let Some(s) = self.stages.get("stereo").filter(|s| s.instructions > 0) {
+            m.push_str(&format!(
+                "Stereo stage (four views, its largest stop): {} instructions, {:.2} per \
+                 working-size pixel matched ({} pixels) and {:.2} per pixel-disparity evaluated \
+                 (target: at most 40,000,000 for the four views: {}). Its scratch, {} bytes, \
+                 lies in the work area after the range accumulator.\n\n",
+                thousands(s.instructions),
+                s.instructions_per_pixel.unwrap_or(0.0),
+                thousands(s.pixels.unwrap_or(0)),
+                s.instructions_per_unit.unwrap_or(0.0),
+                if s.instructions <= 40_000_000 {
+                    "within"
+                } else {
+                    "OVER"
+                },
+                thousands(self.stereo_work_bytes),
+            ));
+        }
         m.push_str(&format!(
             "Whole fix: {} instructions against a budget of {} (goal {}): {}. Stage counts come \
              from SysTick at {} instructions per tick, so each is exact to +-{} instructions. \
@@ -375,6 +417,13 @@ impl Budget {
             thousands(self.external_scratch_bytes),
             kib(self.external_scratch_bytes),
         ));
+        if self.stereo_work_bytes > 0 {
+            m.push_str(&format!(
+                "| of which the stereo stage (matcher scratch, one depth band, one row) | {} | {} |\n",
+                thousands(self.stereo_work_bytes),
+                kib(self.stereo_work_bytes),
+            ));
+        }
         m.push_str(&format!(
             "| **all working memory** (SRAM + external scratch) | **{}** | **{}**: {} |\n",
             thousands(self.working_total_bytes),

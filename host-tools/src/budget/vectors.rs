@@ -2,14 +2,15 @@
 //! in the test zone (the same renderer and pipeline as `orbfix eval`), written as
 //! `vectors.rs` (constants, `f32` as exact bit patterns, buffer sizes from
 //! `orbfix::fix::fix_buffer_sizes`), `frames.bin` (four frames, rig order, packed),
-//! `depths.bin` (their `u16` millimetre depth images, little-endian), `product.bin` (the
-//! map product) and `weights.bin` (the weight file the product was made with and the fix
-//! runs: `orbfix budget --weights`).
+//! `depths.bin` (their `u16` millimetre depth images, little-endian), `rights.bin` (the
+//! right images of the stereo pairs, packed like the frames, when the fix computes depth
+//! itself), `product.bin` (the map product) and `weights.bin` (the weight file the product
+//! was made with and the fix runs: `orbfix budget --weights`).
 
 use crate::eval::pipeline::{
     make_queries, map_region, observe_raw, Condition, PipelineOptions, Query, Reprojection,
 };
-use crate::fix::{build_map_product, FixOutcome, FixRunner, MapProductOptions};
+use crate::fix::{build_map_product, FixDepth, FixOutcome, FixRunner, MapProductOptions};
 use crate::fsutil::write_atomic;
 use crate::world::World;
 use anyhow::{Context, Result};
@@ -29,8 +30,14 @@ pub struct Vectors {
     pub truth_m: (f64, f64),
     /// Four frames, rig order (front, right, rear, left), packed rows.
     pub frames: Vec<u8>,
-    /// Their depth images, `u16` millimetres, packed, or `None` (flat-ground path).
+    /// Their depth images, `u16` millimetres, packed, or `None` (flat-ground path, or the
+    /// stereo pairs).
     pub depths: Option<[Vec<u16>; 4]>,
+    /// The right images of the stereo pairs, packed like `frames` (the fix computes depth
+    /// itself), or `None`.
+    pub rights: Option<Vec<u8>>,
+    /// Stereo baseline, metres (with `rights`).
+    pub baseline_m: f32,
     /// The map product.
     pub product: Vec<u8>,
     /// The weight file (`.ofw`) the product's records were made with.
@@ -87,12 +94,19 @@ impl Vectors {
             .iter()
             .flat_map(|v| v.as_raw().iter().copied())
             .collect();
+        let rights = obs
+            .rights
+            .as_ref()
+            .map(|r| r.iter().flat_map(|v| v.as_raw().iter().copied()).collect());
+        let stereo = rights.is_some();
         Ok(Self {
             params: obs.params,
             pose,
             truth_m: (q.x_m, q.y_m),
             frames,
-            depths: obs.depths,
+            depths: if stereo { None } else { obs.depths },
+            rights,
+            baseline_m: opts.stereo_params().baseline_m,
             product,
             weights: weights.to_vec(),
             source: format!(
@@ -103,7 +117,11 @@ impl Vectors {
                 ((q.prior_x_m - q.x_m).powi(2) + (q.prior_y_m - q.y_m).powi(2)).sqrt(),
                 obs.params.width_px,
                 obs.params.height_px,
-                if matches!(opts.reprojection, Reprojection::Range) { " with depth" } else { ", flat ground" },
+                match opts.reprojection {
+                    Reprojection::Range => " with depth",
+                    Reprojection::Stereo => " with their stereo partners (the fix computes depth)",
+                    Reprojection::Lut => ", flat ground",
+                },
                 opts.map_px,
                 opts.map_px,
                 opts.grid.m_per_px,
@@ -131,13 +149,26 @@ impl Vectors {
                     .map_err(|e| anyhow::anyhow!("bad frame: {e}"))?,
             );
         }
-        runner.run(
-            &self.params,
-            &self.pose,
-            frames,
-            self.depths.as_ref(),
-            &self.product,
-        )
+        let mut rights: [Option<orbfix::image::ImageView<'_>>; 4] = [None; 4];
+        let depth = match &self.rights {
+            Some(r) => {
+                for (i, f) in rights.iter_mut().enumerate() {
+                    let px = r
+                        .get(i * n..(i + 1) * n)
+                        .context("the right frames are shorter than four frames")?;
+                    *f = Some(
+                        orbfix::image::ImageView::new(px, w, h)
+                            .map_err(|e| anyhow::anyhow!("bad right frame: {e}"))?,
+                    );
+                }
+                FixDepth::Stereo(rights)
+            }
+            None => match &self.depths {
+                Some(d) => FixDepth::Images(d),
+                None => FixDepth::Flat,
+            },
+        };
+        runner.run_with(&self.params, &self.pose, frames, depth, &self.product)
     }
 
     /// Writes `vectors.rs`, `frames.bin`, `depths.bin` and `product.bin` into `dir` (each
@@ -157,6 +188,11 @@ impl Vectors {
             Some(d) => d.iter().flatten().flat_map(|v| v.to_le_bytes()).collect(),
             None => vec![0u8; 2 * 4 * self.frame_pixels()],
         };
+        // Without stereo pairs: one frame of zeros, so the firmware's include has a file.
+        let right_bytes: Vec<u8> = match &self.rights {
+            Some(r) => r.clone(),
+            None => vec![0u8; self.frame_pixels()],
+        };
         let src = format!(
             "// Written by `orbfix budget`: {}.\n\
              pub const WIDTH: usize = {};\npub const HEIGHT: usize = {};\n\
@@ -169,7 +205,9 @@ impl Vectors {
              pub const GRID_N: usize = {};\npub const GRID_M_PER_PX: f32 = {};\n\
              pub const TOP: usize = {};\npub const MASK: usize = {};\n\
              pub const WORK_WORDS: usize = {};\npub const RESPONSE: usize = {};\n\
-             pub const REFINE_FLOATS: usize = {};\npub const WEIGHTS_LEN: usize = {};\n",
+             pub const REFINE_FLOATS: usize = {};\npub const WEIGHTS_LEN: usize = {};\n\
+             pub const HAS_STEREO: bool = {};\npub const RIGHTS_LEN: usize = {};\n\
+             pub const STEREO_BASELINE_M: f32 = {};\n",
             self.source,
             p.width_px,
             p.height_px,
@@ -194,9 +232,13 @@ impl Vectors {
             sz.response,
             sz.refine_floats,
             self.weights.len(),
+            self.rights.is_some(),
+            right_bytes.len(),
+            f(self.baseline_m),
         );
         write_atomic(&dir.join("frames.bin"), &self.frames)?;
         write_atomic(&dir.join("depths.bin"), &depth_bytes)?;
+        write_atomic(&dir.join("rights.bin"), &right_bytes)?;
         write_atomic(&dir.join("product.bin"), &self.product)?;
         write_atomic(&dir.join("weights.bin"), &self.weights)?;
         write_atomic(&dir.join("vectors.rs"), src.as_bytes())?;

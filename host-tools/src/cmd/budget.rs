@@ -4,7 +4,7 @@
 use anyhow::{bail, ensure, Context, Result};
 use orbfix::fix::FixConfig;
 use orbfix_host::budget::{self, Estimate, Vectors};
-use orbfix_host::eval::pipeline::{PipelineOptions, Reprojection};
+use orbfix_host::eval::pipeline::{DepthSource, PipelineOptions};
 use orbfix_host::fix::FixRunner;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -67,10 +67,11 @@ pub struct Args {
     /// Stops measured (each its own firmware build and QEMU run).
     #[arg(long, default_value_t = 3)]
     pub stops: usize,
-    /// Geometry of the top-down image: range (depth images, the evaluated default) or lut
-    /// (flat ground).
-    #[arg(long, value_enum, default_value_t = Reprojection::Range)]
-    pub reprojection: Reprojection,
+    /// Depth of the top-down image: stereo (the four stereo pairs; the fix computes depth
+    /// itself, stage `stereo`), truth (the renderer's exact depth images, as an external
+    /// stereo engine would give them) or none (flat ground).
+    #[arg(long, value_enum, default_value_t = DepthSource::Stereo)]
+    pub depth: DepthSource,
     /// Measure even if the firmware is not panic free (it is then built with its
     /// `allow-panic` feature, and the budget records `panic_free: false` and where).
     #[arg(long)]
@@ -264,11 +265,13 @@ pub fn run(args: Args) -> Result<()> {
         "--stops must be 1..=20, got {}",
         args.stops
     );
-    let cfg = FixConfig::default();
     let opts = PipelineOptions {
-        reprojection: args.reprojection,
+        reprojection: args.depth.reprojection(),
         ..PipelineOptions::default()
     };
+    let mut cfg = FixConfig::default();
+    // The firmware sets the baseline from the vectors; everything else is the default.
+    cfg.stereo.matcher.baseline_m = opts.stereo_params().baseline_m;
     let runner = FixRunner { weights, cfg };
     let env_file = toolchain_env(&repo, args.toolchain_env.clone())?;
     let est = Estimate {
@@ -350,6 +353,10 @@ pub fn run(args: Args) -> Result<()> {
         stops.push(stop);
     }
     let mut b = budget::assemble(&est, stops, &sizes, all_ok, &sites, format!("{cfg:?}"));
+    b.depth = args.depth.name().to_string();
+    if args.depth == DepthSource::Stereo {
+        b.stereo_work_bytes = 4 * orbfix::fix::stereo_work_words(&cfg.stereo) as u64;
+    }
     if !panic_free && b.panic_sites.is_empty() {
         // The link failed on the panic symbol but no call site was decoded: still not free.
         b.panic_free = false;
@@ -357,12 +364,13 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     let command = format!(
-        "orbfix budget --target {} --clock-mhz {} --cpi {} --seed {} --stops {} --json {}{}",
+        "orbfix budget --target {} --clock-mhz {} --cpi {} --seed {} --stops {} --depth {} --json {}{}",
         est.target,
         args.clock_mhz,
         args.cpi,
         args.seed,
         args.stops,
+        args.depth.name(),
         args.json.display(),
         if args.allow_panic {
             " --allow-panic"

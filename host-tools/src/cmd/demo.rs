@@ -7,7 +7,7 @@ use anyhow::Context;
 use orbfix::localize::{nearest_window, rank_of, LocalizeConfig};
 use orbfix_host::eval::fix_figure::{fix_svg, FixMarks};
 use orbfix_host::eval::pipeline::{
-    make_queries, render_query_full, Condition, PipelineOptions, Reprojection,
+    make_queries, render_query_full, Condition, DepthSource, PipelineOptions, Reprojection,
 };
 use orbfix_host::eval::{
     best_matcher, fix_config_by_name, localize_fix, localize_top_down, matcher_by_name, overlay,
@@ -38,11 +38,12 @@ pub struct Args {
     /// CNN weight file (.ofw) [default: the shipped weights/matcher-v1.ofw].
     #[arg(long)]
     pub weights: Option<PathBuf>,
-    /// Top-down reprojection: range (the flight core's range path: pixels at their true 3D
-    /// points from millimetre depth images) or lut (the flight core's flat-ground table,
-    /// which relief distorts beyond ~10 m; see docs/results.md).
-    #[arg(long, value_enum, default_value_t = Reprojection::Range)]
-    pub reprojection: Reprojection,
+    /// Depth of the top-down reprojection: stereo (the rover's own stereo pairs, matched by
+    /// the core inside the fix; the truth-depth fix is shown beside it), truth (the
+    /// renderer's exact depth images) or none (the flight core's flat-ground table, which
+    /// relief distorts beyond ~10 m; see docs/results.md).
+    #[arg(long, value_enum, default_value_t = DepthSource::Stereo)]
+    pub depth: DepthSource,
     /// Lighting (same-sun is the study's setting).
     #[arg(long, value_enum, default_value_t = Condition::SameSun)]
     pub condition: Condition,
@@ -68,6 +69,19 @@ struct Row {
     true_cell_rank: usize,
     render_s: f64,
     localize_s: f64,
+    /// Depth source of the fix (stereo, truth, none).
+    depth: String,
+    /// With stereo depth: the same fix on the renderer's exact depth.
+    truth_depth: Option<TruthRow>,
+}
+
+#[derive(Serialize)]
+struct TruthRow {
+    fix_m: (f64, f64),
+    error_m: f64,
+    status: String,
+    path: String,
+    confidence: f64,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -92,7 +106,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             leg_min_m: d.leg_min_m,
             leg_max_m: d.leg_max_m,
             start_sigma_m: d.start_sigma_m,
-            reprojection: a.reprojection,
+            // The traverse renders depth images (truth depth, an external stereo engine's);
+            // on-board stereo inside the traverse is not wired yet.
+            reprojection: match a.depth {
+                orbfix_host::eval::pipeline::DepthSource::None => a.depth.reprojection(),
+                _ => orbfix_host::eval::pipeline::Reprojection::Range,
+            },
             weights: a.weights,
             fresh: true,
             quiet: false,
@@ -115,8 +134,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create the output folder {}", a.out.display()))?;
     let world = World::new(a.seed);
+    let reprojection = a.depth.reprojection();
     let opts = PipelineOptions {
-        reprojection: a.reprojection,
+        reprojection,
         ..PipelineOptions::default()
     };
     let cfg = LocalizeConfig::default();
@@ -127,11 +147,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.seed,
         name,
         a.condition.name(),
-        match a.reprojection {
-            Reprojection::Range => "the flight core's range path (depth images, true 3D points)",
+        match reprojection {
+            Reprojection::Range => "the flight core's range path with the renderer's exact depth images (true 3D points)",
+            Reprojection::Stereo => "the flight core's range path with depth from the rover's own stereo pairs (the fix's stereo stage); the truth-depth fix beside it",
             Reprojection::Lut => "the flight LUT (flat ground)",
         }
     );
+    let stereo_side = reprojection == Reprojection::Stereo && fix_cfg.is_some();
     println!(
         "{:>4}  {:>19}  {:>19}  {:>8}  {:>7}  {:>5}  {:<9}  {:>4}  {:>4}  {:>8}  {:>8}",
         "stop",
@@ -146,16 +168,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "render s",
         "fix ms"
     );
+    if stereo_side {
+        println!("      (with stereo depth; the last columns: the same fix on the renderer's exact depth)");
+    }
     let mut rows = Vec::new();
     for q in &queries {
         let t0 = Instant::now();
         let (obs, top, map) = render_query_full(&world, q, &opts)?;
         let render_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
+        let mut truth_loc = None;
         let loc = match (&spec, fix_cfg) {
             (None, Some(mut cfg)) => {
                 cfg.grid = opts.grid;
                 cfg.range = opts.range;
+                cfg.stereo.matcher = opts.stereo_params();
                 let product = build_map_product(
                     &map,
                     &weights,
@@ -168,6 +195,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     weights: weights.clone(),
                     cfg,
                 };
+                if stereo_side {
+                    if let Some(tobs) = obs.with_truth_depth() {
+                        truth_loc = Some(
+                            localize_fix(
+                                &runner,
+                                &tobs,
+                                &map,
+                                &product,
+                                (q.prior_x_m, q.prior_y_m),
+                                50,
+                            )
+                            .with_context(|| format!("stop {} (truth depth)", q.id))?
+                            .0,
+                        );
+                    }
+                }
                 localize_fix(
                     &runner,
                     &obs,
@@ -210,8 +253,19 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             ),
             None => ("-".to_string(), "-".to_string(), None),
         };
+        let truth_row = truth_loc.as_ref().and_then(|l| {
+            let r = l.fix_report.as_ref()?;
+            let f = (l.fix.x_m as f64, l.fix.y_m as f64);
+            Some(TruthRow {
+                fix_m: f,
+                error_m: ((f.0 - q.x_m).powi(2) + (f.1 - q.y_m).powi(2)).sqrt(),
+                status: r.status.name().to_string(),
+                path: r.path.name().to_string(),
+                confidence: l.fix.confidence as f64,
+            })
+        });
         println!(
-            "{:>4}  {:>9.2},{:>9.2}  {:>9.2},{:>9.2}  {:>8.2}  {:>7}  {:>5.2}  {:<9}  {:>4}  {:>4}  {:>8.2}  {:>8.1}{}",
+            "{:>4}  {:>9.2},{:>9.2}  {:>9.2},{:>9.2}  {:>8.2}  {:>7}  {:>5.2}  {:<9}  {:>4}  {:>4}  {:>8.2}  {:>8.1}{}{}",
             q.id,
             q.x_m,
             q.y_m,
@@ -229,8 +283,32 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 "  (border: rejected)"
             } else {
                 ""
-            }
+            },
+            truth_row.as_ref().map_or(String::new(), |t| format!(
+                "  | truth depth: error {:.2} m, {}",
+                t.error_m, t.status
+            ))
         );
+        if let (Some(tl), Some(t)) = (&truth_loc, &truth_row) {
+            let svg = fix_svg(
+                &map,
+                tl,
+                top.n,
+                &FixMarks {
+                    truth: Some((q.x_m, q.y_m)),
+                    prior: (q.prior_x_m, q.prior_y_m),
+                    bound_m: tl.fix_report.as_ref().map_or(f64::NAN, |r| r.error_bound_m as f64),
+                    title: format!(
+                        "stop {}: {name} with truth depth, error {:.2} m ({}, {} path, confidence {:.2})",
+                        q.id, t.error_m, t.status, t.path, t.confidence
+                    ),
+                },
+            )?;
+            write_atomic(
+                &a.out.join(format!("stop_{:02}_map_truth_depth.svg", q.id)),
+                svg.as_bytes(),
+            )?;
+        }
         save_png_atomic(
             &overlay::top_down_picture(&top),
             &a.out.join(format!("stop_{:02}_topdown.png", q.id)),
@@ -244,8 +322,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 prior: (q.prior_x_m, q.prior_y_m),
                 bound_m: bound.unwrap_or(f64::NAN),
                 title: format!(
-                    "stop {}: {name}, error {:.2} m{}",
+                    "stop {}: {name} ({} depth), error {:.2} m{}",
                     q.id,
+                    a.depth.name(),
                     err,
                     if status == "-" {
                         String::new()
@@ -277,11 +356,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             true_cell_rank: cell_rank + 1,
             render_s,
             localize_s,
+            depth: a.depth.name().to_string(),
+            truth_depth: truth_row,
         });
     }
     let json = serde_json::json!({
         "seed": a.seed, "matcher": name, "condition": a.condition.name(),
-        "reprojection": a.reprojection, "stops": rows,
+        "reprojection": reprojection, "depth": a.depth.name(), "stops": rows,
     });
     write_atomic(
         &a.out.join("demo.json"),

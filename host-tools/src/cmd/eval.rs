@@ -4,7 +4,7 @@
 use anyhow::Context;
 use orbfix::localize::LocalizeConfig;
 use orbfix_host::depth::StereoNoise;
-use orbfix_host::eval::pipeline::{Condition, PipelineOptions, Reprojection};
+use orbfix_host::eval::pipeline::{Condition, DepthSource, PipelineOptions, Reprojection};
 use orbfix_host::eval::run::{run_eval, EvalConfig, EvalOutput};
 use orbfix_host::eval::{
     figures, overlay, parse_matchers, save_png_atomic, write_atomic, MATCHERS,
@@ -53,11 +53,18 @@ pub struct Args {
     /// Example localizations drawn into --figures.
     #[arg(long, default_value_t = 3)]
     pub examples: usize,
-    /// Top-down reprojection: range (the flight core's range path: pixels placed at their
-    /// true 3D points from millimetre depth images, as stereo would give) or lut (the flight
-    /// core's flat-ground table).
-    #[arg(long, value_enum, default_value_t = Reprojection::Range)]
-    pub reprojection: Reprojection,
+    /// Depth of the top-down reprojection: stereo (the rover's own stereo pairs, right
+    /// views rendered too, matched by the core inside the fix: its `stereo` stage), truth
+    /// (the renderer's exact depth images, as an external stereo engine would give them) or
+    /// none (flat ground: the flight core's lookup table).
+    #[arg(long, value_enum, default_value_t = DepthSource::Stereo)]
+    pub depth: DepthSource,
+    /// Older spelling of --depth: range = truth, lut = none, stereo = stereo.
+    #[arg(long, value_enum, conflicts_with = "depth")]
+    pub reprojection: Option<Reprojection>,
+    /// Stereo baseline of the rendered pairs and the matcher, metres (--depth stereo).
+    #[arg(long, default_value_t = orbfix_host::render::stereo::DEFAULT_BASELINE_M)]
+    pub baseline: f64,
     /// Stereo depth noise of the range path: sigma = K * z^2 metres at depth z metres
     /// (e.g. 0.001: 10 cm at 10 m); 0 = exact depths (millimetre quantized).
     #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::non_negative_f64, default_value_t = 0.0)]
@@ -88,6 +95,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.depth_noise_k
     );
     anyhow::ensure!(
+        a.baseline.is_finite() && a.baseline > 0.0 && a.baseline <= 10.0,
+        "--baseline must be a distance in (0, 10] metres, got {}",
+        a.baseline
+    );
+    anyhow::ensure!(
         (1..=16).contains(&a.column_stride),
         "--column-stride must be in 1..=16, got {}",
         a.column_stride
@@ -106,7 +118,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         },
         stride_px: 50,
         pipeline: PipelineOptions {
-            reprojection: a.reprojection,
+            reprojection: a.reprojection.unwrap_or(a.depth.reprojection()),
+            stereo_rig: orbfix_host::render::stereo::StereoRender {
+                baseline_m: a.baseline,
+                ..Default::default()
+            },
             depth_noise: (a.depth_noise_k > 0.0).then_some(StereoNoise {
                 k_per_m: a.depth_noise_k,
                 seed: a.seed,

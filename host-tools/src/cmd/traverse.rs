@@ -99,6 +99,10 @@ pub fn options(a: &Args) -> TraverseOptions {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        a.reprojection != Reprojection::Stereo,
+        "--reprojection stereo is not available in traverses yet (the drive renders depth images); use range (truth depth, the default) or lut"
+    );
     let opts = options(&a);
     opts.validate()?;
     let weights = super::eval::load_weights(a.weights.as_deref())?;

@@ -430,13 +430,13 @@ pub fn localize_fix(
     let mut pose = obs.pose;
     pose.x_m = prior.0 as f32;
     pose.y_m = prior.1 as f32;
-    let out = runner.run(
-        &obs.params,
-        &pose,
-        obs.frames()?,
-        obs.depths.as_ref(),
-        product,
-    )?;
+    // The stereo path: the fix matches the pairs itself (its `stereo` stage).
+    let depth = match (obs.right_frames()?, obs.depths.as_ref()) {
+        (Some(rights), _) => crate::fix::FixDepth::Stereo(rights),
+        (None, Some(d)) => crate::fix::FixDepth::Images(d),
+        (None, None) => crate::fix::FixDepth::Flat,
+    };
+    let out = runner.run_with(&obs.params, &pose, obs.frames()?, depth, product)?;
     let n = runner.cfg.grid.n;
     let (cols, rows, step) = out.grid;
     let cg = Grid::new(n, n, map.width, map.height, step)

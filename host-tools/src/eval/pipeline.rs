@@ -23,6 +23,50 @@ pub enum Reprojection {
     /// at its true 3D point from a depth image (the renderer's range image converted to
     /// millimetre depths, i.e. what stereo or a point cloud would give), averaged per cell.
     Range,
+    /// The same range path with depth from the rover's own stereo pairs (right views
+    /// rendered too), computed by the core's stereo matcher inside the fix (its `stereo`
+    /// stage, `orbfix::fix::Depth::Stereo`).
+    Stereo,
+}
+
+impl Reprojection {
+    /// The depth source in reports: `none` (flat ground), `truth` (the renderer's exact
+    /// depth), `stereo` (the core's own stereo).
+    pub fn depth_name(self) -> &'static str {
+        match self {
+            Reprojection::Lut => "none",
+            Reprojection::Range => "truth",
+            Reprojection::Stereo => "stereo",
+        }
+    }
+}
+
+/// Where the fix's depth comes from (`orbfix eval --depth`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum DepthSource {
+    /// The rover's own stereo pairs, matched by the core inside the fix (`stereo` stage).
+    Stereo,
+    /// The renderer's exact depth images, as an external stereo engine would give them.
+    Truth,
+    /// No depth: flat ground under the rover (the lookup-table path).
+    None,
+}
+
+impl DepthSource {
+    /// Name in reports.
+    pub fn name(self) -> &'static str {
+        self.reprojection().depth_name()
+    }
+
+    /// The reprojection path of this depth source.
+    pub fn reprojection(self) -> Reprojection {
+        match self {
+            DepthSource::Stereo => Reprojection::Stereo,
+            DepthSource::Truth => Reprojection::Range,
+            DepthSource::None => Reprojection::Lut,
+        }
+    }
 }
 
 /// Pipeline settings shared by every query.
@@ -40,6 +84,21 @@ pub struct PipelineOptions {
     pub depth_noise: Option<StereoNoise>,
     /// Settings of the core's range reprojection (column stride, limits, hole filling).
     pub range: reproject::RangeOptions,
+    /// The rendered stereo rig (baseline, right gain) of the stereo path.
+    pub stereo_rig: render::stereo::StereoRender,
+    /// The core's stereo matcher settings of the stereo path (its baseline is set from
+    /// `stereo_rig`).
+    pub stereo: orbfix::stereo::StereoParams,
+}
+
+impl PipelineOptions {
+    /// The matcher settings with the rendered rig's baseline.
+    pub fn stereo_params(&self) -> orbfix::stereo::StereoParams {
+        orbfix::stereo::StereoParams {
+            baseline_m: self.stereo_rig.baseline_m as f32,
+            ..self.stereo
+        }
+    }
 }
 
 impl Default for PipelineOptions {
@@ -51,6 +110,8 @@ impl Default for PipelineOptions {
             map_px: 1200,
             depth_noise: None,
             range: orbfix::fix::FixConfig::default().range,
+            stereo_rig: render::stereo::StereoRender::default(),
+            stereo: orbfix::fix::FixConfig::default().stereo.matcher,
         }
     }
 }
@@ -61,8 +122,15 @@ impl Default for PipelineOptions {
 pub struct Observation {
     /// Frames, front, right, rear, left.
     pub views: [image::GrayImage; 4],
-    /// Depth images (`u16` millimetres along the optical axis, 0 = none), range path only.
+    /// Depth images (`u16` millimetres along the optical axis, 0 = none), range path only
+    /// (on the stereo path: the core's stereo depth, for the baseline matchers).
     pub depths: Option<[Vec<u16>; 4]>,
+    /// The right images of the stereo pairs (stereo path only): the fix matches them
+    /// itself.
+    pub rights: Option<[image::GrayImage; 4]>,
+    /// The renderer's exact depth images (range and stereo paths): the truth-depth fix
+    /// beside the stereo one.
+    pub truth_depths: Option<[Vec<u16>; 4]>,
     /// The rover's true pose (position, ground height, heading).
     pub pose: orbfix::camera::RoverPose,
     /// The camera rig.
@@ -80,6 +148,34 @@ impl Observation {
             );
         }
         Ok(frames)
+    }
+
+    /// The same stop with the renderer's exact depth (no stereo pairs), if it has it.
+    pub fn with_truth_depth(&self) -> Option<Observation> {
+        let truth = self.truth_depths.clone()?;
+        Some(Observation {
+            views: self.views.clone(),
+            depths: Some(truth.clone()),
+            rights: None,
+            truth_depths: Some(truth),
+            pose: self.pose,
+            params: self.params,
+        })
+    }
+
+    /// The right images as core views (stereo path), else `None`.
+    pub fn right_frames(&self) -> anyhow::Result<Option<[Option<ImageView<'_>>; 4]>> {
+        let Some(rights) = &self.rights else {
+            return Ok(None);
+        };
+        let mut frames: [Option<ImageView<'_>>; 4] = [None; 4];
+        for (f, v) in frames.iter_mut().zip(rights) {
+            *f = Some(
+                ImageView::new(v.as_raw(), v.width() as usize, v.height() as usize)
+                    .map_err(|e| anyhow::anyhow!("bad right image: {e}"))?,
+            );
+        }
+        Ok(Some(frames))
     }
 }
 
@@ -101,6 +197,8 @@ pub fn observe_raw(
             Ok(Observation {
                 views,
                 depths: None,
+                rights: None,
+                truth_depths: None,
                 pose,
                 params,
             })
@@ -116,7 +214,35 @@ pub fn observe_raw(
             let depths = depth_images(&set, noise)?;
             Ok(Observation {
                 views: set.views,
+                depths: Some(depths.clone()),
+                rights: None,
+                truth_depths: Some(depths),
+                pose,
+                params,
+            })
+        }
+        Reprojection::Stereo => {
+            let set = render::stereo::render_stereo_views(
+                world,
+                &pose,
+                sun,
+                &opts.render,
+                &opts.stereo_rig,
+                None,
+            )
+            .with_context(|| format!("rendering the stereo pairs at ({x_m:.1}, {y_m:.1}) m"))?;
+            let depths = crate::depth::stereo_depth_images(
+                &set.left.views,
+                &set.right,
+                &params,
+                &opts.stereo_params(),
+            )?;
+            let truth = depth_images(&set.left, None)?;
+            Ok(Observation {
+                views: set.left.views,
                 depths: Some(depths),
+                rights: Some(set.right),
+                truth_depths: Some(truth),
                 pose,
                 params,
             })

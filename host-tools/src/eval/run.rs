@@ -240,6 +240,7 @@ fn run_query(
         if let Some(mut fcfg) = fix_config_by_name(name) {
             fcfg.grid = cfg.pipeline.grid;
             fcfg.range = cfg.pipeline.range;
+            fcfg.stereo.matcher = cfg.pipeline.stereo_params();
             let opts = MapProductOptions::for_fix(&fcfg, sun_deg)?;
             let at = match products.iter().position(|(p, _)| *p == opts.plane) {
                 Some(i) => i,
@@ -424,6 +425,9 @@ pub fn run_eval_on(
         "refine_peaks": cfg.localize.refine_peaks,
         "nms_radius_m": cfg.localize.nms_radius_m,
         "camera": cfg.pipeline.render.camera,
+        "depth": cfg.pipeline.reprojection.depth_name(),
+        "stereo_baseline_m": cfg.pipeline.stereo_rig.baseline_m,
+        "stereo": format!("{:?}", cfg.pipeline.stereo_params()),
     });
     let mut reports = Vec::new();
     for (k, name) in cfg.matchers.iter().enumerate() {
@@ -487,6 +491,7 @@ pub fn run_eval_on(
             fix: fix_config_by_name(name).map(|mut c| {
                 c.grid = cfg.pipeline.grid;
                 c.range = cfg.pipeline.range;
+                c.stereo.matcher = cfg.pipeline.stereo_params();
                 fix_stats(rs, &c)
             }),
             per_query: rs.clone(),

@@ -6,4 +6,4 @@ pub mod product;
 pub mod runner;
 
 pub use product::{build_map_product, MapProductOptions};
-pub use runner::{FixOutcome, FixRunner};
+pub use runner::{FixDepth, FixOutcome, FixRunner};

@@ -30,6 +30,27 @@ pub struct FixOutcome {
     pub seconds: f64,
 }
 
+/// The depth a fix gets ([`FixRunner::run_with`]).
+#[derive(Clone, Copy, Debug)]
+pub enum FixDepth<'a> {
+    /// None: flat ground.
+    Flat,
+    /// Depth images (`u16` millimetres, frame size), e.g. the renderer's truth.
+    Images(&'a [Vec<u16>; 4]),
+    /// The right images of the stereo pairs: the fix computes depth itself.
+    Stereo([Option<ImageView<'a>>; 4]),
+}
+
+impl<'a> FixDepth<'a> {
+    /// Depth images when given, else flat ground.
+    pub fn from_images(depths: Option<&'a [Vec<u16>; 4]>) -> Self {
+        match depths {
+            Some(d) => Self::Images(d),
+            None => Self::Flat,
+        }
+    }
+}
+
 /// A fix configuration with its weights: runs [`orbfix::fix::run`].
 #[derive(Clone, Debug)]
 pub struct FixRunner {
@@ -58,9 +79,21 @@ impl FixRunner {
         depths: Option<&[Vec<u16>; 4]>,
         product: &[u8],
     ) -> anyhow::Result<FixOutcome> {
+        self.run_with(params, pose, frames, FixDepth::from_images(depths), product)
+    }
+
+    /// As [`FixRunner::run`] with any depth source, the stereo pairs included.
+    pub fn run_with(
+        &self,
+        params: &CameraParams,
+        pose: &RoverPose,
+        frames: [Option<ImageView<'_>>; 4],
+        depth: FixDepth<'_>,
+        product: &[u8],
+    ) -> anyhow::Result<FixOutcome> {
         let n = self.cfg.grid.n;
         let (report, mut out) =
-            self.with_scratch(params, pose, frames, depths, product, |inputs, scratch| {
+            self.with_scratch(params, pose, frames, depth, product, |inputs, scratch| {
                 let report = fix::run(inputs, &self.cfg, scratch, &mut NoClock)?;
                 let digest = fix::output_digest(&report, scratch, n);
                 Ok((report, digest))
@@ -83,8 +116,9 @@ impl FixRunner {
         product: &[u8],
         search: &HeadingSearch,
     ) -> anyhow::Result<(HeadingFix, FixOutcome)> {
+        let depth = FixDepth::from_images(depths);
         let (hf, mut out) =
-            self.with_scratch(params, pose, frames, depths, product, |inputs, scratch| {
+            self.with_scratch(params, pose, frames, depth, product, |inputs, scratch| {
                 fix::run_heading_search(inputs, &self.cfg, search, scratch, &mut NoClock)
             })?;
         out.report = hf.report.clone();
@@ -98,10 +132,14 @@ impl FixRunner {
         params: &CameraParams,
         pose: &RoverPose,
         frames: [Option<ImageView<'_>>; 4],
-        depths: Option<&[Vec<u16>; 4]>,
+        depth: FixDepth<'_>,
         product: &[u8],
         f: impl FnOnce(&FixInputs<'_>, &mut FixScratch<'_>) -> Result<R, fix::FixError>,
     ) -> anyhow::Result<(R, FixOutcome)> {
+        let depths = match depth {
+            FixDepth::Images(d) => Some(d),
+            _ => None,
+        };
         let meta = *MapProduct::parse(product, CrcCheck::Skip)
             .map_err(|e| anyhow::anyhow!("{e}"))?
             .meta();
@@ -120,9 +158,10 @@ impl FixRunner {
             params: *params,
             pose: *pose,
             frames,
-            depth: match depths {
-                Some(_) => Depth::Images(dviews),
-                None => Depth::Flat,
+            depth: match depth {
+                FixDepth::Images(_) => Depth::Images(dviews),
+                FixDepth::Stereo(rights) => Depth::Stereo(rights),
+                FixDepth::Flat => Depth::Flat,
             },
             map_product: product,
             weights: &self.weights,
@@ -173,5 +212,6 @@ fn empty_summary() -> orbfix::fix::ReprojectionSummary {
         range: false,
         status: [orbfix::reproject::FrameStatus::Missing; 4],
         valid_cells: 0,
+        stereo: None,
     }
 }

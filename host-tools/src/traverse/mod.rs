@@ -367,6 +367,7 @@ fn report_of(r: &StopRecord) -> FixReport {
             range: true,
             status: [orbfix::reproject::FrameStatus::Ok; 4],
             valid_cells: 0,
+            stereo: None,
         },
     );
     rep.status = match r.fix_status.as_str() {

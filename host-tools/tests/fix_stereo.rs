@@ -1,0 +1,329 @@
+//! The fix with on-board stereo (`orbfix::fix::Depth::Stereo`): the core matches the
+//! rover's stereo pairs itself (stage `stereo`), band by band inside the fix's work area,
+//! and a pair that cannot give depth costs only that view.
+
+use orbfix::fix::{self, Depth, FixConfig, FixInputs, FixScratch, FixStatus, Stage, StageClock};
+use orbfix::image::ImageView;
+use orbfix::map_product::{CrcCheck, MapProduct};
+use orbfix::nn::input::INPUT_LEN;
+use orbfix::nn::model::{Arena, EMBED_LEN};
+use orbfix::reproject::FrameStatus;
+use orbfix::stereo::{Side, StereoError};
+use orbfix_host::eval::pipeline::{
+    map_region, observe_raw, Observation, PipelineOptions, Reprojection,
+};
+use orbfix_host::fix::{build_map_product, FixDepth, FixOutcome, FixRunner, MapProductOptions};
+use orbfix_host::render::Sun;
+use orbfix_host::world::{zones, World};
+use std::sync::OnceLock;
+
+struct Stop {
+    obs: Observation,
+    product: Vec<u8>,
+    truth: (f64, f64),
+    prior: (f64, f64),
+}
+
+/// A stop in the test zone of world 4 (stereo pairs rendered) with a 120 m map around a
+/// prior 17 m off; rendered once for every test.
+fn stop() -> &'static Stop {
+    static STOP: OnceLock<Stop> = OnceLock::new();
+    STOP.get_or_init(|| {
+        let world = World::new(4);
+        let z = zones::zone(zones::Split::Test);
+        let truth = (z.x_min_m + 300.0, z.y_min_m + 420.0);
+        let prior = (truth.0 + 12.0, truth.1 - 12.0);
+        let opts = PipelineOptions {
+            reprojection: Reprojection::Stereo,
+            map_px: 480,
+            ..PipelineOptions::default()
+        };
+        let obs = observe_raw(&world, truth.0, truth.1, 63.0, Sun::default(), &opts).unwrap();
+        let map = map_region(
+            &world,
+            prior.0,
+            prior.1,
+            480,
+            0.25,
+            Sun::default(),
+            &opts.render,
+        )
+        .unwrap();
+        let product = build_map_product(
+            &map,
+            orbfix::nn::model::SHIPPED_WEIGHTS,
+            &MapProductOptions::default(),
+        )
+        .unwrap();
+        Stop {
+            obs,
+            product,
+            truth,
+            prior,
+        }
+    })
+}
+
+fn pose(s: &Stop) -> orbfix::camera::RoverPose {
+    let mut p = s.obs.pose;
+    p.x_m = s.prior.0 as f32;
+    p.y_m = s.prior.1 as f32;
+    p
+}
+
+fn rights(s: &Stop) -> [Option<ImageView<'_>>; 4] {
+    s.obs.right_frames().unwrap().unwrap()
+}
+
+fn run_stereo(
+    s: &Stop,
+    cfg: FixConfig,
+    rights: [Option<ImageView<'_>>; 4],
+) -> anyhow::Result<FixOutcome> {
+    FixRunner::shipped(cfg).run_with(
+        &s.obs.params,
+        &pose(s),
+        s.obs.frames().unwrap(),
+        FixDepth::Stereo(rights),
+        &s.product,
+    )
+}
+
+fn error(s: &Stop, r: &orbfix::fix::FixReport) -> f64 {
+    (r.x_m as f64 - s.truth.0).hypot(r.y_m as f64 - s.truth.1)
+}
+
+#[test]
+fn stereo_fix_finds_the_rover_and_equals_the_same_depth_given_as_images() {
+    let s = stop();
+    let out = run_stereo(s, FixConfig::default(), rights(s)).unwrap();
+    let r = &out.report;
+    assert_eq!(
+        r.reprojection.stereo,
+        Some([None; 4]),
+        "every pair gave depth"
+    );
+    assert!(r.reprojection.range);
+    assert!(r.ops.stereo_pixel_disparities > 1_000_000, "{:?}", r.ops);
+    assert!(r.ops.stereo_depth_px > 10_000, "{:?}", r.ops);
+    assert!(r.ops.stereo_px >= r.ops.stereo_depth_px);
+    assert_eq!(r.status, FixStatus::Ok, "{r:?}");
+    let e = error(s, r);
+    assert!(e < 1.0, "stereo-depth fix {e:.2} m off");
+    // The same core matcher's depth, computed outside the fix and given as images: the
+    // same top-down image and the same position (banding and on-the-fly placement change
+    // nothing).
+    let depths = s.obs.depths.as_ref().unwrap();
+    let img = FixRunner::shipped(FixConfig::default())
+        .run_with(
+            &s.obs.params,
+            &pose(s),
+            s.obs.frames().unwrap(),
+            FixDepth::Images(depths),
+            &s.product,
+        )
+        .unwrap();
+    assert_eq!(img.top, out.top);
+    assert_eq!(img.mask, out.mask);
+    assert_eq!((img.report.x_m, img.report.y_m), (r.x_m, r.y_m));
+    assert_eq!(img.report.reprojection.stereo, None);
+    assert_eq!(img.report.ops.stereo_pixel_disparities, 0);
+    // Truth depth on the same stop, for scale.
+    let truth = s.obs.truth_depths.as_ref().unwrap();
+    let t = FixRunner::shipped(FixConfig::default())
+        .run(
+            &s.obs.params,
+            &pose(s),
+            s.obs.frames().unwrap(),
+            Some(truth),
+            &s.product,
+        )
+        .unwrap();
+    assert!(error(s, &t.report) < 1.0);
+    assert_ne!(t.top, out.top, "stereo depth is not the truth");
+}
+
+#[test]
+fn bands_of_any_height_give_the_same_fix() {
+    let s = stop();
+    let a = run_stereo(s, FixConfig::default(), rights(s)).unwrap();
+    let mut cfg = FixConfig::default();
+    cfg.stereo.band_rows = 7;
+    let b = run_stereo(s, cfg, rights(s)).unwrap();
+    assert_eq!(a.top, b.top);
+    assert_eq!(a.mask, b.mask);
+    assert_eq!((a.report.x_m, a.report.y_m), (b.report.x_m, b.report.y_m));
+    assert_eq!(a.report.ops.stereo_px, b.report.ops.stereo_px);
+    assert_eq!(a.report.ops.stereo_depth_px, b.report.ops.stereo_depth_px);
+    // Smaller bands repeat more set-up rows (and match the one-row margins of more bands).
+    assert!(b.report.ops.stereo_cost_updates > a.report.ops.stereo_cost_updates);
+    assert!(b.report.ops.stereo_pixel_disparities > a.report.ops.stereo_pixel_disparities);
+    // Smaller bands need a smaller work area.
+    let meta = *MapProduct::parse(&s.product, CrcCheck::Skip)
+        .unwrap()
+        .meta();
+    let big = fix::fix_buffer_sizes(&FixConfig::default(), &meta).unwrap();
+    assert!(
+        fix::stereo_work_words(&cfg.stereo) < fix::stereo_work_words(&FixConfig::default().stereo)
+    );
+    assert!(big.work_words >= 200 * 200 + fix::stereo_work_words(&FixConfig::default().stereo));
+}
+
+#[test]
+fn a_bad_pair_costs_only_its_view() {
+    let s = stop();
+    let good = run_stereo(s, FixConfig::default(), rights(s)).unwrap();
+    let (w, h) = (
+        s.obs.params.width_px as usize,
+        s.obs.params.height_px as usize,
+    );
+    let black = vec![0u8; w * h];
+    let white = vec![255u8; w * h];
+    let small = vec![128u8; (w - 2) * h];
+    let mut r = rights(s);
+    r[0] = Some(ImageView::new(&small, w - 2, h).unwrap());
+    r[1] = None;
+    r[2] = Some(ImageView::new(&black, w, h).unwrap());
+    let out = run_stereo(s, FixConfig::default(), r).unwrap();
+    let st = out.report.reprojection.stereo.unwrap();
+    assert_eq!(
+        st[0],
+        Some(StereoError::PairSize {
+            left: (w, h),
+            right: (w - 2, h)
+        })
+    );
+    assert_eq!(st[1], Some(StereoError::MissingRight));
+    assert_eq!(
+        st[2],
+        Some(StereoError::Frame {
+            side: Side::Right,
+            status: FrameStatus::Black
+        })
+    );
+    assert_eq!(st[3], None, "the good pair still gives depth");
+    assert!(out.report.reprojection.valid_cells > 0);
+    assert!(out.report.reprojection.valid_cells < good.report.reprojection.valid_cells / 2);
+    // A saturated right image, and a black left frame (no stereo run at all for it).
+    let mut r = rights(s);
+    r[3] = Some(ImageView::new(&white, w, h).unwrap());
+    let mut frames = s.obs.frames().unwrap();
+    frames[0] = Some(ImageView::new(&black, w, h).unwrap());
+    let out = FixRunner::shipped(FixConfig::default())
+        .run_with(
+            &s.obs.params,
+            &pose(s),
+            frames,
+            FixDepth::Stereo(r),
+            &s.product,
+        )
+        .unwrap();
+    let st = out.report.reprojection.stereo.unwrap();
+    assert_eq!(
+        st[3],
+        Some(StereoError::Frame {
+            side: Side::Right,
+            status: FrameStatus::Saturated
+        })
+    );
+    assert_eq!(out.report.reprojection.status[0], FrameStatus::Black);
+    assert_eq!(st[0], None);
+    assert_eq!((st[1], st[2]), (None, None));
+    // No right image at all: no depth anywhere, a "no data" report at the prior.
+    let out = run_stereo(s, FixConfig::default(), [None; 4]).unwrap();
+    assert_eq!(out.report.status, FixStatus::NoData);
+    assert_eq!(out.report.reprojection.valid_cells, 0);
+    assert_eq!(
+        out.report.reprojection.stereo,
+        Some([Some(StereoError::MissingRight); 4])
+    );
+}
+
+#[test]
+fn a_baseline_of_zero_or_nan_is_a_clear_error() {
+    let s = stop();
+    for b in [0.0f32, f32::NAN, -0.3, f32::INFINITY] {
+        let mut cfg = FixConfig::default();
+        cfg.stereo.matcher.baseline_m = b;
+        let e = run_stereo(s, cfg, rights(s)).unwrap_err().to_string();
+        assert!(
+            e.contains("baseline") && !e.contains("StereoError"),
+            "{b}: {e}"
+        );
+    }
+    // A rig that needs more disparities than the scratch was sized for.
+    let mut cfg = FixConfig::default();
+    cfg.stereo.max_disparities = 5;
+    let e = run_stereo(s, cfg, rights(s)).unwrap_err().to_string();
+    assert!(e.contains("stereo.max_disparities"), "{e}");
+    cfg.stereo.max_disparities = 0;
+    let meta = *MapProduct::parse(&s.product, CrcCheck::Skip)
+        .unwrap()
+        .meta();
+    assert!(fix::fix_buffer_sizes(&cfg, &meta).is_err());
+}
+
+/// Counts the spans of each stage.
+#[derive(Default)]
+struct Spans {
+    begun: [u32; Stage::ALL.len()],
+    ended: [u32; Stage::ALL.len()],
+}
+
+impl StageClock for Spans {
+    fn begin(&mut self, s: Stage) {
+        self.begun[s as usize] += 1;
+    }
+    fn end(&mut self, s: Stage) {
+        self.ended[s as usize] += 1;
+    }
+}
+
+#[test]
+fn the_stage_clock_sees_the_stereo_stage_band_by_band() {
+    let s = stop();
+    let cfg = FixConfig::default();
+    let meta = *MapProduct::parse(&s.product, CrcCheck::Skip)
+        .unwrap()
+        .meta();
+    let sz = fix::fix_buffer_sizes(&cfg, &meta).unwrap();
+    let mut top = vec![0u8; sz.top];
+    let mut mask = vec![0u8; sz.mask];
+    let mut work = vec![0u32; sz.work_words];
+    let mut response = vec![0i32; sz.response];
+    let mut floats = vec![0f32; sz.refine_floats];
+    let mut arena = Box::new(Arena::new());
+    let mut input = Box::new([0i8; INPUT_LEN]);
+    let mut emb = Box::new([0i8; EMBED_LEN]);
+    let mut scratch = FixScratch {
+        top: &mut top,
+        mask: &mut mask,
+        work: &mut work,
+        response: &mut response,
+        refine_floats: &mut floats,
+        nn_arena: &mut arena,
+        nn_input: &mut input,
+        nn_embedding: &mut emb,
+    };
+    let inputs = FixInputs {
+        params: s.obs.params,
+        pose: pose(s),
+        frames: s.obs.frames().unwrap(),
+        depth: Depth::Stereo(rights(s)),
+        map_product: &s.product,
+        weights: orbfix::nn::model::SHIPPED_WEIGHTS,
+    };
+    let mut clock = Spans::default();
+    let r = fix::run(&inputs, &cfg, &mut scratch, &mut clock).unwrap();
+    assert_eq!(r.status, FixStatus::Ok);
+    assert_eq!(clock.begun, clock.ended);
+    let st = clock.begun[Stage::Stereo as usize];
+    // Rig set-up, then 4 views x the bands below the horizon (180 rows, from row 35, 30
+    // rows a band: 5 bands).
+    assert_eq!(st, 1 + 4 * 5, "{:?}", clock.begun);
+    assert!(clock.begun[Stage::Reproject as usize] >= 4 * 5 + 2);
+    assert_eq!(clock.begun[Stage::LutBuild as usize], 0);
+    // A too-short work area is refused, not overrun.
+    scratch.work = &mut [];
+    assert!(fix::run(&inputs, &cfg, &mut scratch, &mut Spans::default()).is_err());
+}
