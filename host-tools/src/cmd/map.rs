@@ -77,7 +77,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             let [west, south, east, north] = w.dem().map(|d| d.extent_m()).unwrap_or_default();
             let half = 0.5 * px as f64 * a.m_per_px;
             anyhow::ensure!(
-                a.x - half >= west && a.x + half <= east && a.y - half >= south && a.y + half <= north,
+                a.x - half >= west
+                    && a.x + half <= east
+                    && a.y - half >= south
+                    && a.y + half <= north,
                 "the {:.0} m map around ({}, {}) leaves the rasters' common region \
                  x {west:.1}..{east:.1}, y {south:.1}..{north:.1} (world metres): move --x/--y or \
                  shrink --size-m",
@@ -121,7 +124,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         println!(
             "site in {}: world (x, y) = CRS (easting - {ox}, northing - {oy}) m; map from the {}",
             d.crs().describe(),
-            if rendered { "rendered DEM" } else { "orthoimage" }
+            if rendered {
+                "rendered DEM"
+            } else {
+                "orthoimage"
+            }
         );
     }
     Ok(())

@@ -334,7 +334,9 @@ pub fn map_region(
         .filter(|d| d.map_source() == crate::world::dem::MapSource::Ortho)
     {
         let geo = GeoRef::centred(cx as f32, cy as f32, size_px, size_px, m_per_px as f32)
-            .map_err(|e| anyhow::anyhow!("bad map georeference around ({cx:.1}, {cy:.1}) m: {e}"))?;
+            .map_err(|e| {
+                anyhow::anyhow!("bad map georeference around ({cx:.1}, {cy:.1}) m: {e}")
+            })?;
         return Ok(MapRegion {
             width: size_px,
             height: size_px,
