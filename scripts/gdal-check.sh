@@ -203,5 +203,45 @@ for k in ("width", "height", "origin_x_m", "origin_y_m", "m_per_px", "values"):
 assert b["raster_type"] == "PixelIsPoint" and a["crs"] == b["crs"], (a["crs"], b["crs"])
 EOF
 
+# ---------------------------------------------------------------- a GDAL-written DEM site
+# scripts/dem_site.py (python3-gdal; a synthetic Mars site, IAU_2015:49910, far from the CRS
+# origin): `orbfix map --dem` is the orthoimage's own pixels where the grids align; maps off
+# the site, sites too small for an evaluation and mixed CRSs are refused with what to do.
+if "$PY" scripts/dem_site.py --size-m 200 --seed 3 --out-dem "$T/site_dem.tif" \
+     --out-ortho "$T/site_ortho.tif" >/dev/null; then
+  ok "dem_site.py: python3-gdal writes a DEM + orthoimage site"
+else
+  ko "dem_site.py: python3-gdal writes a DEM + orthoimage site"
+fi
+"$ORBFIX" map --dem "$T/site_dem.tif" --ortho "$T/site_ortho.tif" --x 100 --y 900 --size-m 50 \
+  --out "$T/site_map.png" > "$T/site_map.txt" 2>&1
+check "orbfix map --dem: the map is the orthoimage's pixels, offset (4590000, 1090000) in MAP.json" "$PY" - "$T" <<'EOF'
+import json, sys
+from osgeo import gdal
+t = sys.argv[1]
+m = json.load(open(f"{t}/site_map.json"))
+assert m["crs_offset_m"] == [4590000.0, 1090000.0], m
+assert (m["origin_x_m"], m["origin_y_m"], m["m_per_px"]) == (75.0, 925.0, 0.25), m
+assert m["world_seed"] is None and m["sun_deg"] is None, m
+a = gdal.Open(f"{t}/site_map.png").ReadAsArray()
+# World (75, 925) = CRS (4590075, 1090925): orthoimage column 300, row 300.
+o = gdal.Open(f"{t}/site_ortho.tif").ReadAsArray(300, 300, 200, 200)
+assert a.shape == (200, 200) and (a == o).all(), int((a != o).sum())
+assert "Mars (2015)" in open(f"{t}/site_map.txt").read()
+EOF
+# refused_cmd NAME WORD COMMAND...: the command must fail with a message containing WORD.
+refused_cmd() {
+  local name=$1 word=$2 out; shift 2
+  if out=$("$@" 2>&1); then ko "$name" "accepted: $out"
+  elif echo "$out" | grep -qi -- "$word"; then ok "$name"; else ko "$name" "message lacks '$word': $out"; fi
+}
+refused_cmd "orbfix map --dem refuses a map off the site" "leaves the rasters' common region" \
+  "$ORBFIX" map --dem "$T/site_dem.tif" --ortho "$T/site_ortho.tif" --x 10 --y 900 --size-m 50 --out "$T/x.png"
+refused_cmd "orbfix eval --dem refuses a site too small for its map and prior" "overlap less than" \
+  "$ORBFIX" eval --dem "$T/site_dem.tif" --ortho "$T/site_ortho.tif" --queries 1 --json "$T/e.json" --quiet
+gdal_translate -q -a_srs EPSG:32633 "$T/site_ortho.tif" "$T/site_ortho_utm.tif"
+refused_cmd "orbfix map --dem refuses a DEM and orthoimage in different CRSs" "gdalwarp" \
+  "$ORBFIX" map --dem "$T/site_dem.tif" --ortho "$T/site_ortho_utm.tif" --x 100 --y 900 --out "$T/x.png"
+
 echo "$pass passed, $fail failed"
 [ "$fail" = 0 ]

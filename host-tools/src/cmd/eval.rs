@@ -83,6 +83,12 @@ pub struct Args {
     /// The orthoimage GeoTIFF drawn as albedo over --dem.
     #[arg(long, requires = "dem")]
     pub ortho: Option<PathBuf>,
+    /// With --dem: the orbital map (and the fix's map product) is the orthoimage resampled to
+    /// the map grid (ortho, the default: what a mission has; the map sun of --condition then
+    /// has no effect) or the DEM rendered with the orthoimage as albedo under the map sun
+    /// (render).
+    #[arg(long, value_enum, requires = "dem")]
+    pub dem_map: Option<orbfix_host::world::dem::MapSource>,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -139,7 +145,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let out = match (&a.dem, &a.ortho) {
         (Some(dem), Some(ortho)) => {
-            let world = orbfix_host::world::World::from_geotiff(dem, ortho)?;
+            let mut world = orbfix_host::world::World::from_geotiff(dem, ortho)?;
+            world.set_dem_map_source(a.dem_map.unwrap_or_default());
             let margin = orbfix_host::eval::pipeline::PRIOR_OFFSET_M
                 + 0.5 * cfg.pipeline.map_px as f64 * cfg.pipeline.grid.m_per_px as f64;
             let zone = world.dem().and_then(|d| d.location_zone(margin)).with_context(|| {

@@ -1,28 +1,42 @@
-//! `orbfix map`: render an orbital map region of the built-in world as MAP.png + MAP.json
-//! (the georeference `orbfix localize` needs).
+//! `orbfix map`: an orbital map region of the built-in world, or of a DEM + orthoimage site
+//! (GeoTIFFs), as MAP.png + MAP.json (the georeference `orbfix localize` needs).
 
 use anyhow::Context;
 use orbfix_host::eval::pipeline::map_region;
 use orbfix_host::eval::{save_png_atomic, write_atomic, MapMeta};
 use orbfix_host::render::{RenderOptions, Sun};
+use orbfix_host::world::dem::MapSource;
 use orbfix_host::world::World;
 use std::path::PathBuf;
 
 /// Write a north-up map region centred on (x, y) with its georeference sidecar.
 #[derive(clap::Args, Debug)]
 #[command(
-    after_help = "Example: orbfix map --x 3000 --y 2000 --out out/map.png  (writes out/map.png and out/map.json)"
+    after_help = "Examples:\n  orbfix map --x 3000 --y 2000 --out out/map.png  (writes out/map.png and out/map.json)\n  \
+                  orbfix map --dem dem.tif --ortho ortho.tif --x 500 --y 500 --out out/site-map.png\n  \
+                  (a DEM site: x, y in world metres = CRS metres minus the offset the command prints)"
 )]
 pub struct Args {
-    /// World seed.
+    /// World seed (the built-in world; unused with --dem).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Centre east, metres.
+    /// Centre east, metres (world frame; for --dem the CRS easting minus the site's offset).
     #[arg(long, allow_negative_numbers = true)]
     pub x: f64,
-    /// Centre north, metres.
+    /// Centre north, metres (world frame; for --dem the CRS northing minus the offset).
     #[arg(long, allow_negative_numbers = true)]
     pub y: f64,
+    /// A real DEM (single-band GeoTIFF, projected CRS in metres; docs/interop.md) instead of
+    /// the built-in world. Needs --ortho.
+    #[arg(long, requires = "ortho")]
+    pub dem: Option<PathBuf>,
+    /// The orthoimage GeoTIFF of --dem (same CRS).
+    #[arg(long, requires = "dem")]
+    pub ortho: Option<PathBuf>,
+    /// With --dem: the map is the orthoimage resampled to the grid (ortho, the default: what
+    /// a mission has) or the DEM rendered with the orthoimage as albedo under --sun-* (render).
+    #[arg(long, value_enum, requires = "dem")]
+    pub dem_map: Option<MapSource>,
     /// Side of the region, metres (300 = the study's search region).
     #[arg(long, allow_negative_numbers = true, default_value_t = 300.0)]
     pub size_m: f64,
@@ -56,7 +70,30 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     );
     let sun = Sun::new(a.sun_elevation, a.sun_azimuth)
         .map_err(|e| anyhow::anyhow!("{e} (elevation 0-90 deg, azimuth 0-360 deg)"))?;
-    let world = World::new(a.seed);
+    let world = match (&a.dem, &a.ortho) {
+        (Some(dem), Some(ortho)) => {
+            let mut w = World::from_geotiff(dem, ortho)?;
+            w.set_dem_map_source(a.dem_map.unwrap_or_default());
+            let [west, south, east, north] = w.dem().map(|d| d.extent_m()).unwrap_or_default();
+            let half = 0.5 * px as f64 * a.m_per_px;
+            anyhow::ensure!(
+                a.x - half >= west
+                    && a.x + half <= east
+                    && a.y - half >= south
+                    && a.y + half <= north,
+                "the {:.0} m map around ({}, {}) leaves the rasters' common region \
+                 x {west:.1}..{east:.1}, y {south:.1}..{north:.1} (world metres): move --x/--y or \
+                 shrink --size-m",
+                a.size_m,
+                a.x,
+                a.y
+            );
+            w
+        }
+        _ => World::new(a.seed),
+    };
+    let dem = world.dem();
+    let rendered = dem.is_none_or(|d| d.map_source() == MapSource::Render);
     let map = map_region(
         &world,
         a.x,
@@ -75,11 +112,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         m_per_px: map.geo.m_per_px() as f64,
         width_px: map.width,
         height_px: map.height,
-        world_seed: Some(a.seed),
-        sun_deg: Some((a.sun_elevation, a.sun_azimuth)),
+        world_seed: dem.is_none().then_some(a.seed),
+        sun_deg: rendered.then_some((a.sun_elevation, a.sun_azimuth)),
+        crs_offset_m: dem.map(|d| d.crs_offset_m()),
     };
     let meta_path = a.out.with_extension("json");
     write_atomic(&meta_path, serde_json::to_string_pretty(&meta)?.as_bytes())?;
     println!("{} + {}", a.out.display(), meta_path.display());
+    if let Some(d) = dem {
+        let (ox, oy) = d.crs_offset_m();
+        println!(
+            "site in {}: world (x, y) = CRS (easting - {ox}, northing - {oy}) m; map from the {}",
+            d.crs().describe(),
+            if rendered {
+                "rendered DEM"
+            } else {
+                "orthoimage"
+            }
+        );
+    }
     Ok(())
 }

@@ -541,6 +541,10 @@ pub struct MapMeta {
     /// Sun elevation and azimuth of the render, degrees, if any.
     #[serde(default)]
     pub sun_deg: Option<(f64, f64)>,
+    /// For a map of a DEM world (`orbfix map --dem`): what to add to world `(x, y)` to get
+    /// the GeoTIFFs' CRS `(easting, northing)`, metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crs_offset_m: Option<(f64, f64)>,
 }
 
 /// Loads `MAP.png` + `MAP.json`, checking the georeference and sizes.

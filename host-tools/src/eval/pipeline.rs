@@ -7,6 +7,7 @@ use crate::depth::{depth_images, StereoNoise};
 use crate::render::{self, RenderOptions, Sun};
 use crate::world::{zones, World};
 use anyhow::Context;
+use orbfix::geo::GeoRef;
 use orbfix::image::ImageView;
 use orbfix::reproject::{self, Cell, GridSpec, Tap};
 use rand::{Rng, SeedableRng};
@@ -442,7 +443,9 @@ pub fn reproject_views(
     })
 }
 
-/// Renders the `size_px x size_px` orbital map region centred on `(cx, cy)` metres.
+/// The `size_px x size_px` orbital map region centred on `(cx, cy)` metres: rendered under
+/// `sun`, or for a DEM world whose map source is [`crate::world::dem::MapSource::Ortho`] (the
+/// default) the orthoimage itself resampled to the grid (`sun` and `opts` then unused).
 pub fn map_region(
     world: &World,
     cx: f64,
@@ -452,6 +455,21 @@ pub fn map_region(
     sun: Sun,
     opts: &RenderOptions,
 ) -> anyhow::Result<MapRegion> {
+    if let Some(dem) = world
+        .dem()
+        .filter(|d| d.map_source() == crate::world::dem::MapSource::Ortho)
+    {
+        let geo = GeoRef::centred(cx as f32, cy as f32, size_px, size_px, m_per_px as f32)
+            .map_err(|e| {
+                anyhow::anyhow!("bad map georeference around ({cx:.1}, {cy:.1}) m: {e}")
+            })?;
+        return Ok(MapRegion {
+            width: size_px,
+            height: size_px,
+            image: dem.ortho_map(&geo, size_px, size_px),
+            geo,
+        });
+    }
     let (img, geo) =
         render::render_satellite_crop(world, cx, cy, size_px as u32, m_per_px, sun, opts)
             .with_context(|| format!("rendering the map around ({cx:.1}, {cy:.1}) m"))?;

@@ -14,6 +14,11 @@
 //!   which is `(0, 0)` when the rasters lie within 100 km of the CRS origin (orbfix's own
 //!   exports round-trip unchanged) and otherwise the DEM's south-west corner rounded down to
 //!   whole kilometres, so that the core's `f32` georeferences stay centimetre-exact.
+//! - Orbital map: by default ([`MapSource::Ortho`]) map regions of a DEM world
+//!   ([`crate::eval::pipeline::map_region`], so `orbfix map`, `orbfix eval` and the fix's map
+//!   products) are the orthoimage itself, resampled to the map's grid
+//!   ([`DemTerrain::ortho_map`]): the product a mission has; [`MapSource::Render`] renders the
+//!   DEM with the orthoimage as albedo under the map's sun instead.
 
 use super::zones::Zone;
 use super::{HeightGrid, World, WorldConfig, MAX_GRID_PIXELS};
@@ -28,6 +33,17 @@ const LOCAL_LIMIT_M: f64 = 100_000.0;
 
 /// Display gamma used to linearize the orthoimage (the renderer's default).
 const ORTHO_GAMMA: f64 = 2.2;
+
+/// Where the orbital map of a DEM world comes from (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum MapSource {
+    /// The orthoimage's gray levels resampled to the map grid (no sun, no re-rendering).
+    #[default]
+    Ortho,
+    /// The DEM rendered with the orthoimage as albedo under the map's sun.
+    Render,
+}
 
 /// A north-up raster of `f32` in world coordinates (metres).
 #[derive(Clone, Debug)]
@@ -86,6 +102,38 @@ impl Layer {
     }
 }
 
+/// A mip pyramid of `base` down to 1 x 1 (level 0 = `base`).
+fn pyramid(base: Layer) -> Vec<Layer> {
+    let mut levels = vec![base];
+    while let Some(last) = levels.last() {
+        if last.w == 1 && last.h == 1 {
+            break;
+        }
+        let next = last.halved();
+        levels.push(next);
+    }
+    levels
+}
+
+/// Trilinear sample of a pyramid over a `footprint_m` square at world `(x, y)` (a bilinear
+/// point sample for footprints up to the base pixel); 0 off the base raster.
+fn sample_pyramid(levels: &[Layer], x: f64, y: f64, footprint_m: f64) -> f64 {
+    let base = &levels[0];
+    if !base.covers(x, y) {
+        return 0.0;
+    }
+    let ratio = footprint_m / base.geo.m_per_px();
+    if !(ratio.is_finite() && ratio > 1.0) {
+        return base.bilinear_clamped(x, y);
+    }
+    let lvl = ratio.log2().min((levels.len() - 1) as f64);
+    let l0 = lvl.floor() as usize;
+    let l1 = (l0 + 1).min(levels.len() - 1);
+    let a0 = levels[l0].bilinear_clamped(x, y);
+    let a1 = levels[l1].bilinear_clamped(x, y);
+    a0 + (a1 - a0) * (lvl - l0 as f64)
+}
+
 /// A DEM + orthoimage terrain (see the module docs). Built by [`DemTerrain::from_rasters`]
 /// or [`World::from_geotiff`].
 #[derive(Clone, Debug)]
@@ -93,6 +141,10 @@ pub struct DemTerrain {
     height: Layer,
     /// Albedo mip pyramid, level 0 = the orthoimage's pixels.
     albedo: Vec<Layer>,
+    /// The orthoimage's gray levels (0..=255; no-data 0), mip pyramid as `albedo`.
+    gray: Vec<Layer>,
+    /// Where map regions come from.
+    map_source: MapSource,
     /// The region both rasters cover, `[west, south, east, north]`, world metres.
     extent: [f64; 4],
     offset: (f64, f64),
@@ -188,14 +240,23 @@ impl DemTerrain {
                 .map(|&v| (v as f64 * k).min(1.0) as f32)
                 .collect(),
         };
-        let mut albedo = vec![base];
-        while let Some(last) = albedo.last() {
-            if last.w == 1 && last.h == 1 {
-                break;
-            }
-            let next = last.halved();
-            albedo.push(next);
-        }
+        let gray = pyramid(Layer {
+            w: ortho.width,
+            h: ortho.height,
+            geo: base.geo,
+            v: ortho
+                .values
+                .iter()
+                .map(|&v| {
+                    if ortho.is_nodata(v) {
+                        0.0
+                    } else {
+                        (v.max(0.0) as f64 / peak * 255.0).min(255.0) as f32
+                    }
+                })
+                .collect(),
+        });
+        let albedo = pyramid(base);
         let extent = [
             de[0].max(oe[0]) - offset.0,
             de[1].max(oe[1]) - offset.1,
@@ -209,6 +270,8 @@ impl DemTerrain {
         Ok(Self {
             height,
             albedo,
+            gray,
+            map_source: MapSource::default(),
             extent,
             offset,
             crs: dem.crs.clone(),
@@ -275,20 +338,36 @@ impl DemTerrain {
     }
 
     fn albedo_at(&self, x: f64, y: f64, footprint_m: f64) -> f64 {
-        let base = &self.albedo[0];
-        if !base.covers(x, y) {
-            return 0.0;
+        sample_pyramid(&self.albedo, x, y, footprint_m)
+    }
+
+    /// Where this terrain's map regions come from.
+    pub fn map_source(&self) -> MapSource {
+        self.map_source
+    }
+
+    /// The orthoimage resampled to a `width x height` map grid whose north-west corner and
+    /// pixel size are `geo` (world metres): at each pixel centre the gray level averaged over
+    /// the map pixel (trilinear in the gray pyramid; bilinear when the map's pixels are no
+    /// larger than the orthoimage's), rounded; 0 off the orthoimage and on its no-data pixels.
+    pub fn ortho_map(&self, geo: &orbfix::geo::GeoRef, width: usize, height: usize) -> Vec<u8> {
+        let (ox, oy, m) = (
+            geo.origin_x_m() as f64,
+            geo.origin_y_m() as f64,
+            geo.m_per_px() as f64,
+        );
+        let mut out = vec![0u8; width * height];
+        if width == 0 {
+            return out;
         }
-        let ratio = footprint_m / base.geo.m_per_px();
-        if !(ratio.is_finite() && ratio > 1.0) {
-            return base.bilinear_clamped(x, y);
-        }
-        let lvl = ratio.log2().min((self.albedo.len() - 1) as f64);
-        let l0 = lvl.floor() as usize;
-        let l1 = (l0 + 1).min(self.albedo.len() - 1);
-        let a0 = self.albedo[l0].bilinear_clamped(x, y);
-        let a1 = self.albedo[l1].bilinear_clamped(x, y);
-        a0 + (a1 - a0) * (lvl - l0 as f64)
+        out.par_chunks_mut(width).enumerate().for_each(|(r, row)| {
+            let y = oy - (r as f64 + 0.5) * m;
+            for (c, px) in row.iter_mut().enumerate() {
+                let g = sample_pyramid(&self.gray, ox + (c as f64 + 0.5) * m, y, m);
+                *px = g.round().clamp(0.0, 255.0) as u8;
+            }
+        });
+        out
     }
 
     /// Fills `grid`'s heights and albedo at its pixel centres (rows in parallel).
@@ -336,6 +415,14 @@ impl World {
         let mut w = World::build(0, WorldConfig::default());
         w.dem = Some(Arc::new(terrain));
         w
+    }
+
+    /// Chooses where the map regions of a DEM world come from (no effect on the procedural
+    /// world).
+    pub fn set_dem_map_source(&mut self, source: MapSource) {
+        if let Some(d) = self.dem.as_mut() {
+            Arc::make_mut(d).map_source = source;
+        }
     }
 
     /// The DEM terrain of a world made by [`World::from_geotiff`], `None` for the
