@@ -15,6 +15,7 @@ fn fix_at(x: f32, y: f32, bound: f32, status: FixStatus) -> FixReport {
             range: true,
             status: [FrameStatus::Ok; 4],
             valid_cells: 40_000,
+            stereo: None,
         },
     );
     r.status = status;
