@@ -7,7 +7,6 @@
 
 pub mod budget;
 pub mod dataset;
-pub mod depth;
 pub mod eval;
 pub mod fix;
 pub mod fsutil;
@@ -15,8 +14,7 @@ pub mod geotiff;
 pub mod nn;
 pub mod npy;
 pub mod render;
-pub mod reproject_bench;
-pub mod reproject_ref;
+pub mod reproject;
 pub mod stereo_bench;
 pub mod tflite;
 pub mod traverse;

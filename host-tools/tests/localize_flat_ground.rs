@@ -8,7 +8,7 @@ use orbfix::image::ImageView;
 use orbfix::localize::{nearest_window, rank_of, LocalizeConfig};
 use orbfix::reproject::{reproject_top_down, table_len, Cell, GridSpec, Tap, DEFAULT_EXTRA};
 use orbfix_host::eval::{localize_top_down, matcher_by_name, MapRegion, TopDown};
-use orbfix_host::reproject_ref::render_flat_ground;
+use orbfix_host::reproject::reference::render_flat_ground;
 
 fn hash(i: i64, j: i64) -> f64 {
     let mut z = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)

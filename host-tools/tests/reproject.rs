@@ -8,7 +8,7 @@ use orbfix::reproject::{
     reproject_top_down, table_len, Cell, FrameStatus, GridSpec, Lut, ReprojectError, Tap,
     DEFAULT_EXTRA,
 };
-use orbfix_host::reproject_ref::{render_flat_ground, reproject_f64, ripple_texture};
+use orbfix_host::reproject::reference::{render_flat_ground, reproject_f64, ripple_texture};
 
 struct TopDown {
     out: Vec<u8>,

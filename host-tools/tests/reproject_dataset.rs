@@ -6,7 +6,7 @@ use orbfix::camera::RoverPose;
 use orbfix::image::ImageView;
 use orbfix::reproject::{equalize_rings, table_len, Cell, GridSpec, Lut, Tap, DEFAULT_EXTRA};
 use orbfix_host::dataset::{self, Dataset, GenerateConfig, Preset};
-use orbfix_host::reproject_ref::reproject_f64;
+use orbfix_host::reproject::reference::reproject_f64;
 use std::process::Command;
 
 fn masked_ncc(a: &[u8], b: &[u8], mask: &[u8]) -> f64 {

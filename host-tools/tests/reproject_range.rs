@@ -8,12 +8,12 @@ use orbfix::reproject::{
     range_scratch_len, reproject_range, DepthView, FrameStatus, GridSpec, RangeAccumulator,
     RangeError, RangeOptions, ReprojectError,
 };
-use orbfix_host::depth::{depth_images, StereoNoise};
 use orbfix_host::eval::pipeline::{
     make_queries, map_region, reproject_by_range, reproject_depths, reproject_views, Condition,
 };
 use orbfix_host::eval::TopDown;
 use orbfix_host::render::{self, RenderOptions, Sun, ViewSet};
+use orbfix_host::reproject::depth::{depth_images, StereoNoise};
 use orbfix_host::world::World;
 
 fn small_render() -> RenderOptions {

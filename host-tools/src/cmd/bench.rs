@@ -342,7 +342,7 @@ fn world_rate(
 
 fn bench_reproject(args: &Args) -> anyhow::Result<()> {
     let (w, h) = super::generate::parse_size(&args.size)?;
-    orbfix_host::reproject_bench::run(&orbfix_host::reproject_bench::BenchOptions {
+    orbfix_host::reproject::bench::run(&orbfix_host::reproject::bench::BenchOptions {
         width_px: w,
         height_px: h,
         reps: args.reps,

@@ -3,12 +3,12 @@
 //! per stage beside the flight budget.
 
 use orbfix::localize::LocalizeConfig;
-use orbfix_host::depth::depth_images;
 use orbfix_host::eval::pipeline::{
     make_queries, render_query, reproject_depths, Condition, PipelineOptions,
 };
 use orbfix_host::eval::{localize_top_down, matcher_by_name, parse_matchers};
 use orbfix_host::render;
+use orbfix_host::reproject::depth::depth_images;
 use orbfix_host::world::World;
 
 /// Flight budget of one whole fix, instructions (Cortex-M7 class, ~100 MHz).

@@ -3,12 +3,12 @@
 
 use anyhow::Context;
 use orbfix::localize::LocalizeConfig;
-use orbfix_host::depth::StereoNoise;
 use orbfix_host::eval::pipeline::{Condition, DepthSource, PipelineOptions, Reprojection};
 use orbfix_host::eval::run::{run_eval, EvalConfig, EvalOutput};
 use orbfix_host::eval::{
     figures, overlay, parse_matchers, save_png_atomic, write_atomic, MATCHERS,
 };
+use orbfix_host::reproject::depth::StereoNoise;
 use std::path::{Path, PathBuf};
 
 /// Evaluate matchers on generated rover stops of the test zone (no dataset needed).

@@ -3,8 +3,8 @@
 //! generated evaluation queries of the test zone.
 
 use super::{MapRegion, TopDown};
-use crate::depth::{depth_images, StereoNoise};
 use crate::render::{self, RenderOptions, Sun};
+use crate::reproject::depth::{depth_images, StereoNoise};
 use crate::world::{zones, World};
 use anyhow::Context;
 use orbfix::geo::GeoRef;
@@ -232,7 +232,7 @@ pub fn observe_raw(
                 None,
             )
             .with_context(|| format!("rendering the stereo pairs at ({x_m:.1}, {y_m:.1}) m"))?;
-            let depths = crate::depth::stereo_depth_images(
+            let depths = crate::reproject::depth::stereo_depth_images(
                 &set.left.views,
                 &set.right,
                 &params,

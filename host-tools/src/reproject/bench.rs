@@ -5,10 +5,10 @@
 //! reprojection (`reproject_range`) on the same frames with flat-ground depth images.
 //!
 //! Used by `orbfix bench reproject` and `cargo bench -p orbfix-host --bench reproject`.
-//! Frames are the flat-ground synthetic views of [`crate::reproject_ref`] (the speed of a
+//! Frames are the flat-ground synthetic views of [`crate::reproject::reference`] (the speed of a
 //! table lookup does not depend on the picture).
 
-use crate::reproject_ref::{
+use crate::reproject::reference::{
     render_flat_ground, reproject_f64, ripple_texture, stacked_source_maps,
 };
 use anyhow::{Context, Result};
