@@ -6,6 +6,23 @@ use image::{ExtendedColorType, GrayImage, ImageEncoder};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// Refuses an output `path` that exists and is not a regular file (what [`write_atomic`]
+/// refuses), so that a command can say so before its long work; `-` (standard output) and
+/// paths that do not exist yet pass.
+pub fn check_output(path: &Path) -> anyhow::Result<()> {
+    if path.as_os_str() == "-" {
+        return Ok(());
+    }
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => bail!(
+            "{} is not a regular file ({}); give the path of a file to write, or - for standard output",
+            path.display(),
+            if m.is_dir() { "a folder" } else { "a device, pipe or socket" }
+        ),
+        _ => Ok(()),
+    }
+}
+
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder, fsync, rename.
 /// A reader never sees a partial file; an interrupted write leaves at most a `.tmp` file.
 ///
@@ -21,14 +38,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
             .context("cannot write to standard output")?;
         return Ok(());
     }
-    match std::fs::metadata(path) {
-        Ok(m) if !m.is_file() => bail!(
-            "{} is not a regular file ({}); give the path of a file to write, or - for standard output",
-            path.display(),
-            if m.is_dir() { "a folder" } else { "a device, pipe or socket" }
-        ),
-        _ => {}
-    }
+    check_output(path)?;
     let dir = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())

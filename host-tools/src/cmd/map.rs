@@ -1,9 +1,13 @@
 //! `orbfix map`: an orbital map region of the built-in world, or of a DEM + orthoimage site
-//! (GeoTIFFs), as MAP.png + MAP.json (the georeference `orbfix localize` needs).
+//! (GeoTIFFs), as MAP.png + MAP.json (the georeference `orbfix localize` needs) and, with
+//! `--product`, as the map product the rover carries (`.ofm`, docs/map-format.md).
 
 use anyhow::Context;
 use orbfix_host::eval::pipeline::map_region;
 use orbfix_host::eval::{save_png_atomic, write_atomic, MapMeta};
+use orbfix_host::fix::{build_map_product, MapProductOptions};
+use orbfix_host::fsutil::check_output;
+use orbfix_host::nn::weights_file::WeightsArg;
 use orbfix_host::render::{RenderOptions, Sun};
 use orbfix_host::world::dem::MapSource;
 use orbfix_host::world::World;
@@ -13,6 +17,9 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 #[command(
     after_help = "Examples:\n  orbfix map --x 3000 --y 2000 --out out/map.png  (writes out/map.png and out/map.json)\n  \
+                  orbfix map --x 3000 --y 2000 --out out/map.png --product out/map.ofm\n  \
+                  (also the map product the rover carries: pixels, georeference, refinement plane,\n  \
+                  CNN window records of the weights, CRC-32; docs/map-format.md)\n  \
                   orbfix map --dem dem.tif --ortho ortho.tif --x 500 --y 500 --out out/site-map.png\n  \
                   (a DEM site: x, y in world metres = CRS metres minus the offset the command prints)"
 )]
@@ -52,6 +59,13 @@ pub struct Args {
     /// Output PNG; the georeference goes next to it with the extension .json.
     #[arg(long)]
     pub out: PathBuf,
+    /// Also write the map product (`.ofm`) of this region: what the rover carries and the
+    /// fix reads, made with the default fix configuration's window grid (50 m windows every
+    /// 4 m) and refinement plane, and the CNN records of --weights.
+    #[arg(long, value_name = "FILE.ofm")]
+    pub product: Option<PathBuf>,
+    #[command(flatten)]
+    pub weights: WeightsArg,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -68,6 +82,27 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         (8..=16384).contains(&px),
         "the map would be {px} px wide: choose --size-m / --m-per-px between 8 and 16384"
     );
+    // The product's checks first: a bad weight file or output is refused before the rendering.
+    let weights = match &a.product {
+        Some(path) => {
+            let grid = orbfix::fix::FixConfig::default().grid;
+            let (n, res) = (grid.n, f64::from(grid.m_per_px));
+            anyhow::ensure!(
+                (a.m_per_px - res).abs() < 1e-6,
+                "--product needs --m-per-px {res}, the fix's top-down resolution (got {})",
+                a.m_per_px
+            );
+            anyhow::ensure!(
+                px >= n,
+                "--product needs a map at least as wide as the fix's top-down window ({n} px, \
+                 {:.0} m); this one is {px} px: raise --size-m",
+                n as f64 * res
+            );
+            check_output(path)?;
+            Some(a.weights.bytes()?)
+        }
+        None => None,
+    };
     let sun = Sun::new(a.sun_elevation, a.sun_azimuth)
         .map_err(|e| anyhow::anyhow!("{e} (elevation 0-90 deg, azimuth 0-360 deg)"))?;
     let world = match (&a.dem, &a.ortho) {
@@ -119,6 +154,30 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let meta_path = a.out.with_extension("json");
     write_atomic(&meta_path, serde_json::to_string_pretty(&meta)?.as_bytes())?;
     println!("{} + {}", a.out.display(), meta_path.display());
+    if let (Some(path), Some(weights)) = (&a.product, &weights) {
+        let sun_deg = rendered.then_some((a.sun_elevation as f32, a.sun_azimuth as f32));
+        let opts = MapProductOptions::for_fix(&orbfix::fix::FixConfig::default(), sun_deg)?;
+        let bytes = build_map_product(&map, weights, &opts)?;
+        // What the rover will do first: the core's own validation, CRC included.
+        let product =
+            orbfix::map_product::MapProduct::parse(&bytes, orbfix::map_product::CrcCheck::Verify)
+                .map_err(|e| anyhow::anyhow!("the map product just built does not validate: {e}"))?;
+        let meta = *product.meta();
+        write_atomic(path, &bytes)?;
+        println!(
+            "{}: map product, {} x {} px, {} x {} CNN windows of {} px every {} px, weights {} \
+             ({:.1} MB)",
+            path.display(),
+            meta.width,
+            meta.height,
+            (meta.width - meta.window_px) / meta.step_px + 1,
+            (meta.height - meta.window_px) / meta.step_px + 1,
+            meta.window_px,
+            meta.step_px,
+            a.weights.describe(),
+            bytes.len() as f64 / 1e6
+        );
+    }
     if let Some(d) = dem {
         let (ox, oy) = d.crs_offset_m();
         println!(
