@@ -23,10 +23,10 @@
 
 use orbfix::fix::{self, FixConfig, FixError, FixReport, FixScratch, FixStatus, Stage, StageClock};
 use orbfix::map_product::{CrcCheck, MapProduct};
-use orbfix::nn::input::INPUT_LEN;
-use orbfix::nn::model::{Arena, ACTIVATION_BYTES, EMBED_LEN, SCRATCH_LEN, SHIPPED_WEIGHTS};
+use orbfix::nn::model::{Arena, ACTIVATION_BYTES, SCRATCH_LEN, SHIPPED_WEIGHTS};
 use orbfix_host::eval::pipeline::Reprojection;
 use orbfix_host::eval::pipeline::{map_region, observe_raw, Observation, PipelineOptions};
+use orbfix_host::fix::OwnedScratch;
 use orbfix_host::fix::{build_map_product, MapProductOptions};
 use orbfix_host::render::Sun;
 use orbfix_host::world::{zones, World};
@@ -73,47 +73,8 @@ fn stop(reprojection: Reprojection) -> Stop {
 }
 
 /// Owned scratch of one fix, exactly as long as `fix_buffer_sizes` says.
-struct Bufs {
-    top: Vec<u8>,
-    mask: Vec<u8>,
-    work: Vec<u32>,
-    response: Vec<i32>,
-    floats: Vec<f32>,
-    arena: Box<Arena>,
-    input: Box<[i8; INPUT_LEN]>,
-    emb: Box<[i8; EMBED_LEN]>,
-}
-
-impl Bufs {
-    fn new(s: &Stop, cfg: &FixConfig) -> Self {
-        let meta = *MapProduct::parse(&s.product, CrcCheck::Skip)
-            .unwrap()
-            .meta();
-        let z = fix::fix_buffer_sizes(cfg, &meta).unwrap();
-        Self {
-            top: vec![0; z.top],
-            mask: vec![0; z.mask],
-            work: vec![0; z.work_words],
-            response: vec![0; z.response],
-            floats: vec![0.0; z.refine_floats],
-            arena: Box::new(Arena::new()),
-            input: Box::new([0; INPUT_LEN]),
-            emb: Box::new([0; EMBED_LEN]),
-        }
-    }
-
-    fn scratch(&mut self) -> FixScratch<'_> {
-        FixScratch {
-            top: &mut self.top,
-            mask: &mut self.mask,
-            work: &mut self.work,
-            response: &mut self.response,
-            refine_floats: &mut self.floats,
-            nn_arena: &mut self.arena,
-            nn_input: &mut self.input,
-            nn_embedding: &mut self.emb,
-        }
-    }
+fn bufs_for(s: &Stop, cfg: &FixConfig) -> OwnedScratch {
+    OwnedScratch::for_product(cfg, &s.product).unwrap()
 }
 
 const BUFFERS: [&str; 8] = [
@@ -203,7 +164,7 @@ fn run_fix(
     cfg: &FixConfig,
     weights: &[u8],
     product: &[u8],
-    bufs: &mut Bufs,
+    bufs: &mut OwnedScratch,
     clock: &mut Injector,
 ) -> Outcome {
     let mut pose = s.obs.pose;
@@ -316,7 +277,7 @@ fn flight_cfg() -> FixConfig {
 fn flips_in_weights_and_map_product_are_detected() {
     let s = stop(Reprojection::Range);
     let cfg = flight_cfg();
-    let mut bufs = Bufs::new(&s, &cfg);
+    let mut bufs = bufs_for(&s, &cfg);
     let clean = run_fix(
         &s,
         &cfg,
@@ -434,7 +395,7 @@ fn flips_in_scratch_before_the_run_are_harmless() {
     for path in [Reprojection::Range, Reprojection::Lut] {
         let s = stop(path);
         let cfg = FixConfig::default();
-        let mut bufs = Bufs::new(&s, &cfg);
+        let mut bufs = bufs_for(&s, &cfg);
         let clean = run_fix(
             &s,
             &cfg,
@@ -447,7 +408,7 @@ fn flips_in_scratch_before_the_run_are_harmless() {
         let mut t = Tally::default();
         for (b, buf) in BUFFERS.iter().enumerate() {
             for _ in 0..8 * k {
-                let mut bufs = Bufs::new(&s, &cfg);
+                let mut bufs = bufs_for(&s, &cfg);
                 let v = bytes(&mut bufs.scratch(), b).len() * 8;
                 let bit = rng.random_range(0..v);
                 bytes(&mut bufs.scratch(), b)[bit / 8] ^= 1 << (bit % 8);
@@ -463,7 +424,7 @@ fn flips_in_scratch_before_the_run_are_harmless() {
             }
         }
         // And a scratch full of random bytes.
-        let mut bufs = Bufs::new(&s, &cfg);
+        let mut bufs = bufs_for(&s, &cfg);
         for b in 0..BUFFERS.len() {
             rng.fill(bytes(&mut bufs.scratch(), b));
         }
@@ -509,7 +470,7 @@ fn flips_in_scratch_between_stages_are_detected_or_harmless() {
         ),
         ("redundant_embed only", embed_only, false),
     ] {
-        let mut bufs = Bufs::new(&s, &cfg);
+        let mut bufs = bufs_for(&s, &cfg);
         let mut probe = Injector::default();
         let clean = run_fix(&s, &cfg, SHIPPED_WEIGHTS, &s.product, &mut bufs, &mut probe);
         assert!(

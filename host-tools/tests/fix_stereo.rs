@@ -2,16 +2,15 @@
 //! rover's stereo pairs itself (stage `stereo`), band by band inside the fix's work area,
 //! and a pair that cannot give depth costs only that view.
 
-use orbfix::fix::{self, Depth, FixConfig, FixInputs, FixScratch, FixStatus, Stage, StageClock};
+use orbfix::fix::{self, Depth, FixConfig, FixInputs, FixStatus, Stage, StageClock};
 use orbfix::image::ImageView;
 use orbfix::map_product::{CrcCheck, MapProduct};
-use orbfix::nn::input::INPUT_LEN;
-use orbfix::nn::model::{Arena, EMBED_LEN};
 use orbfix::reproject::FrameStatus;
 use orbfix::stereo::{Side, StereoError};
 use orbfix_host::eval::pipeline::{
     map_region, observe_raw, Observation, PipelineOptions, Reprojection,
 };
+use orbfix_host::fix::OwnedScratch;
 use orbfix_host::fix::{build_map_product, FixDepth, FixOutcome, FixRunner, MapProductOptions};
 use orbfix_host::render::Sun;
 use orbfix_host::world::{zones, World};
@@ -283,28 +282,8 @@ impl StageClock for Spans {
 fn the_stage_clock_sees_the_stereo_stage_band_by_band() {
     let s = stop();
     let cfg = FixConfig::default();
-    let meta = *MapProduct::parse(&s.product, CrcCheck::Skip)
-        .unwrap()
-        .meta();
-    let sz = fix::fix_buffer_sizes(&cfg, &meta).unwrap();
-    let mut top = vec![0u8; sz.top];
-    let mut mask = vec![0u8; sz.mask];
-    let mut work = vec![0u32; sz.work_words];
-    let mut response = vec![0i32; sz.response];
-    let mut floats = vec![0f32; sz.refine_floats];
-    let mut arena = Box::new(Arena::new());
-    let mut input = Box::new([0i8; INPUT_LEN]);
-    let mut emb = Box::new([0i8; EMBED_LEN]);
-    let mut scratch = FixScratch {
-        top: &mut top,
-        mask: &mut mask,
-        work: &mut work,
-        response: &mut response,
-        refine_floats: &mut floats,
-        nn_arena: &mut arena,
-        nn_input: &mut input,
-        nn_embedding: &mut emb,
-    };
+    let mut bufs = OwnedScratch::for_product(&cfg, &s.product).unwrap();
+    let mut scratch = bufs.scratch();
     let inputs = FixInputs {
         params: s.obs.params,
         pose: pose(s),

@@ -5,14 +5,14 @@
 //! (`cargo test --test fuzz_fix -- --nocapture`).
 
 use orbfix::camera::{CameraParams, RoverPose};
-use orbfix::fix::{self, Depth, FixConfig, FixInputs, FixScratch, NoClock};
+use orbfix::fix::{self, Depth, FixConfig, FixInputs, NoClock};
 use orbfix::geo::GeoRef;
 use orbfix::image::ImageView;
 use orbfix::map_product::{CrcCheck, MapProduct};
-use orbfix::nn::input::INPUT_LEN;
-use orbfix::nn::model::{Arena, EMBED_LEN, SHIPPED_WEIGHTS};
+use orbfix::nn::model::SHIPPED_WEIGHTS;
 use orbfix::reproject::{DepthView, GridSpec};
 use orbfix_host::eval::MapRegion;
+use orbfix_host::fix::OwnedScratch;
 use orbfix_host::fix::{build_map_product, MapProductOptions};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -172,23 +172,8 @@ fn the_fix_never_panics_on_hostile_inputs() {
                     ..FixConfig::default()
                 };
                 let s = fix::fix_buffer_sizes(&base, &meta).unwrap();
-                let (mut top, mut mask) = (vec![0u8; s.top], vec![0u8; s.mask]);
-                let mut work = vec![0u32; s.work_words];
-                let mut response = vec![0i32; s.response];
-                let mut floats = vec![0f32; s.refine_floats];
-                let mut arena = Box::new(Arena::new());
-                let mut input = Box::new([0i8; INPUT_LEN]);
-                let mut emb = Box::new([0i8; EMBED_LEN]);
-                let mut scratch = FixScratch {
-                    top: &mut top,
-                    mask: &mut mask,
-                    work: &mut work,
-                    response: &mut response,
-                    refine_floats: &mut floats,
-                    nn_arena: &mut arena,
-                    nn_input: &mut input,
-                    nn_embedding: &mut emb,
-                };
+                let mut bufs = OwnedScratch::new(&s);
+                let mut scratch = bufs.scratch();
                 if let Ok(r) = fix::run(&inputs, &cfg, &mut scratch, &mut NoClock) {
                     // Whatever it reports is finite or the prior's position.
                     prop_assert!(r.confidence.is_finite() && (0.0..=1.0).contains(&r.confidence));

@@ -1,13 +1,12 @@
 //! Runs the core's fix on owned images with owned scratch.
 
+use super::OwnedScratch;
 use orbfix::camera::{CameraParams, RoverPose};
 use orbfix::fix::{
     self, Depth, FixConfig, FixInputs, FixReport, FixScratch, HeadingFix, HeadingSearch, NoClock,
 };
 use orbfix::image::ImageView;
 use orbfix::map_product::{CrcCheck, MapProduct};
-use orbfix::nn::input::INPUT_LEN;
-use orbfix::nn::model::{Arena, EMBED_LEN};
 use orbfix::reproject::DepthView;
 use std::time::Instant;
 
@@ -166,24 +165,8 @@ impl FixRunner {
             map_product: product,
             weights: &self.weights,
         };
-        let mut top = vec![0u8; sizes.top];
-        let mut mask = vec![0u8; sizes.mask];
-        let mut work = vec![0u32; sizes.work_words];
-        let mut response = vec![0i32; sizes.response];
-        let mut floats = vec![0f32; sizes.refine_floats];
-        let mut arena = Box::new(Arena::new());
-        let mut input = Box::new([0i8; INPUT_LEN]);
-        let mut emb = Box::new([0i8; EMBED_LEN]);
-        let mut scratch = FixScratch {
-            top: &mut top,
-            mask: &mut mask,
-            work: &mut work,
-            response: &mut response,
-            refine_floats: &mut floats,
-            nn_arena: &mut arena,
-            nn_input: &mut input,
-            nn_embedding: &mut emb,
-        };
+        let mut bufs = OwnedScratch::new(&sizes);
+        let mut scratch = bufs.scratch();
         let t0 = Instant::now();
         let result = f(&inputs, &mut scratch).map_err(|e| anyhow::anyhow!("{e}"))?;
         let seconds = t0.elapsed().as_secs_f64();
@@ -196,9 +179,9 @@ impl FixRunner {
             result,
             FixOutcome {
                 report,
-                top,
-                mask,
-                response,
+                top: bufs.top,
+                mask: bufs.mask,
+                response: bufs.response,
                 grid: (l.cols, l.rows, meta.step_px),
                 digest: 0,
                 seconds,
