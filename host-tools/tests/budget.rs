@@ -2,6 +2,7 @@
 //! the one fix, report parsing in the core's result protocol, result comparison, the budget
 //! table, ELF reading and Thumb branch decoding.
 
+use orbfix::fix::FixStatus;
 use orbfix::fix::{protocol, FixConfig, HeadingSearch, Stage};
 use orbfix::fusion::Fusion;
 use orbfix::reproject::GridSpec;
@@ -280,19 +281,29 @@ fn fusion_and_heading_search_entries_are_the_traverse_s_work_and_compare_bit_exa
     });
     let fix = v.host_run(&runner).unwrap();
 
-    // The budget's filter work is the traverse's: predict, radius, update, in that order.
-    let (filter, stop) = case.host_run(&fix.report).unwrap();
-    let mut t = Fusion::new(drive.fusion_config(), case.start_m.0, case.start_m.1).unwrap();
-    t.predict(&case.leg).unwrap();
-    let radius = t.search_radius_m();
-    let outcome = t.update(&fix.report).unwrap();
-    assert_eq!(filter, t);
-    assert_eq!(stop.search_radius_m.to_bits(), radius.to_bits());
-    assert_eq!(stop.outcome, outcome);
-    assert!(
-        outcome.accepted(),
-        "a fix at the stop agrees with a prediction 0.7 m off"
-    );
+    // The budget's filter work is the traverse's: predict, radius, update, in that order; on
+    // the small stop's own fix and on an ok fix at the truth (the accepting branch).
+    let mut at_truth = fix.report.clone();
+    at_truth.status = FixStatus::Ok;
+    at_truth.x_m = v.truth_m.0 as f32;
+    at_truth.y_m = v.truth_m.1 as f32;
+    at_truth.error_bound_m = 0.5;
+    let traverse_way = |r: &orbfix::fix::FixReport| {
+        let mut t = Fusion::new(drive.fusion_config(), case.start_m.0, case.start_m.1).unwrap();
+        t.predict(&case.leg).unwrap();
+        let radius = t.search_radius_m();
+        let outcome = t.update(r).unwrap();
+        (t, radius, outcome)
+    };
+    for r in [&fix.report, &at_truth] {
+        let (filter, stop) = case.host_run(r).unwrap();
+        let (t, radius, outcome) = traverse_way(r);
+        assert_eq!(filter, t);
+        assert_eq!(stop.search_radius_m.to_bits(), radius.to_bits());
+        assert_eq!(stop.outcome, outcome);
+        assert_eq!(outcome.accepted(), r.status == FixStatus::Ok, "{outcome:?}");
+    }
+    let (filter, stop) = case.host_run(&at_truth).unwrap();
     let p = filter.position();
     assert!((p.0 as f64 - v.truth_m.0).hypot(p.1 as f64 - v.truth_m.1) < 0.7);
 
@@ -318,10 +329,13 @@ fn fusion_and_heading_search_entries_are_the_traverse_s_work_and_compare_bit_exa
     assert_eq!(hf, ht);
     assert_eq!(hf.tried, 5);
     assert_eq!(digest, out.digest);
+    // The reported heading is the best try's, moved by less than half a step.
+    assert!([-4.0, -2.0, 0.0, 2.0, 4.0].contains(&hf.best_offset_deg));
     assert!(
-        (hf.heading_deg - h0).abs() < 1.5,
-        "the search moves the heading towards the truth: {} vs {h0}",
-        hf.heading_deg
+        (hf.heading_deg - (h0 + 1.5 + hf.best_offset_deg)).abs() <= 1.0 + 1e-4,
+        "{} vs {h0} + 1.5 + {}",
+        hf.heading_deg,
+        hf.best_offset_deg
     );
 
     // A firmware report with both entries parses; equal values are bit exact.
