@@ -134,7 +134,7 @@ impl FixRunner {
         let n = self.cfg.grid.n;
         let ((hf, digest), mut out) =
             self.with_scratch(params, pose, frames, depth, product, |inputs, scratch| {
-                let hf = fix::run_heading_search(inputs, &self.cfg, search, scratch, &mut NoClock)?;
+                let hf = heading_search(inputs, &self.cfg, search, scratch)?;
                 let digest = fix::output_digest(&hf.report, scratch, n);
                 Ok((hf, digest))
             })?;
@@ -223,6 +223,18 @@ impl FixRunner {
             },
         ))
     }
+}
+
+/// The core's heading search, out of line: inlined into its caller (with the digest after
+/// it) the frame grows past the stack-probe check's 4 KiB (scripts/stack-probe-check.py).
+#[inline(never)]
+fn heading_search(
+    inputs: &FixInputs<'_>,
+    cfg: &FixConfig,
+    search: &HeadingSearch,
+    scratch: &mut FixScratch<'_>,
+) -> Result<HeadingFix, fix::FixError> {
+    fix::run_heading_search(inputs, cfg, search, scratch, &mut NoClock)
 }
 
 fn empty_summary() -> orbfix::fix::ReprojectionSummary {
