@@ -6,7 +6,11 @@
 //! product in external memory (`.psram`), and the weights it was made with (the shipped
 //! ones unless `orbfix budget --weights FILE`) in flash; then reports
 //! over semihosting in the core's result protocol ([`orbfix::fix::protocol`]) and exits
-//! through semihosting with status 0 (fix ran, stack within its region) or 1. Under
+//! through semihosting with status 0 (fix ran, stack within its region) or 1. When the
+//! vectors ask for them, it then times the fusion filter's work at one stop of a drive
+//! ([`protocol::fusion_stop`] on the fix's report) and the heading search
+//! ([`fix::run_heading_search`], on the same inputs and scratch around a given heading
+//! estimate) and reports them too. Under
 //! `-icount shift=0` one SysTick tick is 40 instructions (see docs/flight-target.md).
 //!
 //! No panic path may remain: the panic handler calls a symbol that does not exist, so the
@@ -27,7 +31,10 @@ mod vectors {
 use core::ptr::addr_of_mut;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use orbfix::camera::{CameraParams, RoverPose};
-use orbfix::fix::{self, protocol, Depth, FixConfig, FixInputs, FixScratch, Stage};
+use orbfix::fix::{
+    self, protocol, Depth, FixConfig, FixInputs, FixReport, FixScratch, HeadingSearch, Stage,
+};
+use orbfix::fusion::{Fusion, OdometryLeg};
 use orbfix::image::ImageView;
 use orbfix::nn::input::INPUT_LEN;
 use orbfix::nn::model::{Arena, EMBED_LEN};
@@ -197,6 +204,15 @@ fn main() -> ! {
             Line::new().str(protocol::END).str(" ERR ").str(what).send();
         }
     }
+    #[cfg(not(feature = "no-fix"))]
+    if let Ok(r) = &result {
+        if vectors::FUSION && !fusion_entry(r, &clock) {
+            ok = false;
+        }
+        if vectors::HEADING_STEPS > 0 && !heading_entry(&cfg, &mut scratch, &mut clock) {
+            ok = false;
+        }
+    }
 
     let (peak, size) = clock::stack_peak();
     Line::new()
@@ -217,6 +233,100 @@ fn main() -> ! {
         Line::new().str(protocol::END).str(" OK").send();
     }
     report::exit(ok)
+}
+
+/// The filter's work at one stop ([`protocol::fusion_stop`]) on the fix's report, from the
+/// start, leg and settings in the vectors; reports its ticks and results. `false` (after an
+/// `END ERR` line) if the filter refused.
+#[cfg(not(feature = "no-fix"))]
+fn fusion_entry(fix_report: &FixReport, clock: &clock::StageTicks) -> bool {
+    use core::hint::black_box;
+    let cfg = protocol::fusion_config_from_words(&vectors::FUSION_CFG);
+    let Ok(mut filter) = Fusion::new(cfg, vectors::FUSION_START[0], vectors::FUSION_START[1])
+    else {
+        Line::new()
+            .str(protocol::END)
+            .str(" ERR fusion settings refused")
+            .send();
+        return false;
+    };
+    let leg = OdometryLeg {
+        distance_m: vectors::FUSION_LEG[0],
+        heading_deg: vectors::FUSION_LEG[1],
+    };
+    let t0 = clock.now();
+    // The barriers keep the filter's work between the two clock readings.
+    let stop = protocol::fusion_stop(
+        black_box(&mut filter),
+        black_box(&leg),
+        black_box(fix_report),
+    );
+    black_box(&stop);
+    let ticks = clock.now().wrapping_sub(t0);
+    let Ok(stop) = stop else {
+        Line::new()
+            .str(protocol::END)
+            .str(" ERR fusion failed")
+            .send();
+        return false;
+    };
+    Line::new().str(protocol::FUSION).str(" ").u64(ticks).send();
+    report::keyed(
+        protocol::FUSION_RESULT,
+        &protocol::FUSION_KEYS,
+        &protocol::fusion_values(&filter, &stop),
+    );
+    true
+}
+
+/// The heading search on the stop's inputs around the vectors' heading estimate, with the
+/// fix's scratch (no memory of its own beyond the stack); reports its ticks and results.
+#[cfg(not(feature = "no-fix"))]
+fn heading_entry(
+    cfg: &FixConfig,
+    scratch: &mut FixScratch<'_>,
+    clock: &mut clock::StageTicks,
+) -> bool {
+    let (Ok(search), Some(mut inp)) = (
+        HeadingSearch::new(vectors::HEADING_STEPS, vectors::HEADING_STEP_DEG),
+        inputs(),
+    ) else {
+        Line::new()
+            .str(protocol::END)
+            .str(" ERR bad heading-search vectors")
+            .send();
+        return false;
+    };
+    inp.pose.heading_deg = vectors::HEADING_ESTIMATE_DEG;
+    let t0 = clock.now();
+    let found = fix::run_heading_search(&inp, cfg, &search, scratch, clock);
+    let ticks = clock.now().wrapping_sub(t0);
+    match found {
+        Ok(h) => {
+            Line::new()
+                .str(protocol::HEADING)
+                .str(" ")
+                .u64(search.count() as u64)
+                .str(" ")
+                .u64(ticks)
+                .send();
+            let digest = fix::output_digest(&h.report, scratch, cfg.grid.n);
+            report::keyed(
+                protocol::HEADING_RESULT,
+                &protocol::HEADING_KEYS,
+                &protocol::heading_values(&h, digest),
+            );
+            true
+        }
+        Err(e) => {
+            Line::new()
+                .str(protocol::END)
+                .str(" ERR heading search: ")
+                .str(report::fix_error(&e))
+                .send();
+            false
+        }
+    }
 }
 
 #[exception]

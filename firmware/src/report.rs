@@ -113,6 +113,20 @@ pub fn results(r: &FixReport, digest: u32) {
     }
 }
 
+/// `<tag> <key> 0x<hex>` lines, one per key and value (the protocol's `FUSION-RESULT` and
+/// `HEADING-RESULT` records).
+pub fn keyed(tag: &str, keys: &[&str], values: &[u32]) {
+    for (k, v) in keys.iter().zip(values) {
+        Line::new()
+            .str(tag)
+            .str(" ")
+            .str(k)
+            .str(" ")
+            .hex32(*v)
+            .send();
+    }
+}
+
 /// A short text for a fix error (no `core::fmt` on the target).
 pub fn fix_error(e: &FixError) -> &'static str {
     match e {

@@ -144,6 +144,14 @@ pub fn run<C: StageClock>(
 }
 
 /// One run of the fix (see [`run`]).
+/// Column and row of window `idx` in a grid `cols` wide (`(0, 0)` for an empty grid).
+fn window_cell(idx: usize, cols: usize) -> (usize, usize) {
+    (
+        idx.checked_rem(cols).unwrap_or(0),
+        idx.checked_div(cols).unwrap_or(0),
+    )
+}
+
 fn run_once<C: StageClock>(
     inputs: &FixInputs<'_>,
     cfg: &FixConfig,
@@ -245,7 +253,11 @@ fn run_once<C: StageClock>(
     };
     after!(Stage::Reproject);
     let mut report = FixReport::no_data(inputs.pose.x_m, inputs.pose.y_m, reprojection);
-    let permille = (reprojection.valid_cells * 1000 / (n * n)) as u32;
+    let permille = reprojection
+        .valid_cells
+        .saturating_mul(1000)
+        .checked_div(n.saturating_mul(n))
+        .unwrap_or(0) as u32;
     report.coverage_permille = permille;
     if reprojection.valid_cells == 0 || permille < cfg.min_coverage_permille {
         report.ops = ops;
@@ -306,7 +318,7 @@ fn run_once<C: StageClock>(
     let centre = |col: f32, row: f32| meta.geo.to_world(col + half, row + half);
     // The CNN's own sub-cell peak of the best window.
     let cnn_pos = {
-        let (c, r) = (best_idx % cols, best_idx / cols);
+        let (c, r) = window_cell(best_idx, cols);
         let at = |x: usize, y: usize| {
             if x < cols && y < layout.rows {
                 response.get(y * cols + x).map(|&v| v as f32)
@@ -343,7 +355,8 @@ fn run_once<C: StageClock>(
             Ok(t) => {
                 let mut best: Option<(usize, refine::Refined)> = None;
                 for &(idx, _) in peaks.iter().take(cfg.refine.peaks) {
-                    let w = ((idx % cols) * step, (idx / cols) * step);
+                    let (c, r) = window_cell(idx, cols);
+                    let w = (c * step, r * step);
                     let r = refine::refine_window(
                         cfg,
                         &rl,
@@ -379,7 +392,8 @@ fn run_once<C: StageClock>(
         }
     }
     for &(idx, s) in peaks.iter().skip(cands.len()) {
-        let (x_m, y_m) = centre(((idx % cols) * step) as f32, ((idx / cols) * step) as f32);
+        let (c, r) = window_cell(idx, cols);
+        let (x_m, y_m) = centre((c * step) as f32, (r * step) as f32);
         let _ = cands.push(Candidate {
             x_m,
             y_m,
@@ -393,7 +407,7 @@ fn run_once<C: StageClock>(
     ops.refine_macs = refine_ops.macs + refine_ops.downsample_px;
 
     let (x_m, y_m) = centre(col, row);
-    let (c, r) = (idx % cols, idx / cols);
+    let (c, r) = window_cell(idx, cols);
     let on_border = c == 0 || r == 0 || c + 1 == cols || r + 1 == layout.rows;
     report.x_m = x_m;
     report.y_m = y_m;

@@ -309,8 +309,11 @@ impl Fusion {
     /// Radius around [`Fusion::position`] that the next fix must search, metres.
     pub fn search_radius_m(&self) -> f32 {
         let c = &self.cfg;
+        // max/min, not `clamp` (which has a panic path for min > max; the settings are
+        // validated so that min <= max).
         (c.radius_sigmas * self.sigma_major_m() + c.radius_margin_m)
-            .clamp(c.radius_min_m, c.radius_max_m)
+            .max(c.radius_min_m)
+            .min(c.radius_max_m)
     }
 
     /// Fixes folded in so far.

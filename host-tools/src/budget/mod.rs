@@ -12,9 +12,14 @@ pub mod table;
 pub mod vectors;
 
 pub use elf::{elf_sizes, panic_sites, thumb_branch_target, ElfSizes};
-pub use report::{expected_results, mismatches, parse_report, FirmwareReport};
-pub use table::{assemble, stop_budget, Budget, Estimate, StageBudget, StopBudget};
-pub use vectors::Vectors;
+pub use report::{
+    expected_fusion, expected_heading, expected_results, keyed_mismatches, mismatches,
+    parse_report, ExtraReport, FirmwareReport,
+};
+pub use table::{
+    assemble, stop_budget, Budget, Estimate, FusionBudget, HeadingBudget, StageBudget, StopBudget,
+};
+pub use vectors::{FusionCase, HeadingCase, Vectors};
 
 /// Guest instructions per SysTick tick: QEMU `-icount shift=0` runs one instruction per
 /// virtual nanosecond, and the mps2-an500 core clock feeding SysTick is 25 MHz (40 ns).

@@ -21,6 +21,46 @@ pub struct FirmwareReport {
     pub ok: bool,
     /// `END ERR ...` texts.
     pub errors: Vec<String>,
+    /// The filter's per-stop work (`FUSION` and its `FUSION-RESULT` lines), if reported.
+    pub fusion: Option<ExtraReport>,
+    /// The heading search (`HEADING` and its `HEADING-RESULT` lines), if reported.
+    pub heading: Option<ExtraReport>,
+}
+
+/// A measurement the firmware reports after the fix: the filter or the heading search.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ExtraReport {
+    /// SysTick ticks.
+    pub ticks: u64,
+    /// Headings tried (heading search; 0 for the filter).
+    pub headings: u64,
+    /// Result lines, in order: key and value.
+    pub results: Vec<(String, String)>,
+}
+
+fn hex_lines<const N: usize>(keys: &[&str; N], values: [u32; N]) -> Vec<(String, String)> {
+    keys.iter()
+        .zip(values)
+        .map(|(k, v)| (k.to_string(), format!("0x{v:08x}")))
+        .collect()
+}
+
+/// The `FUSION-RESULT` lines the firmware must print for the host's run of the same filter
+/// work ([`orbfix::fix::protocol::fusion_stop`]).
+pub fn expected_fusion(
+    fusion: &orbfix::fusion::Fusion,
+    stop: &protocol::FusionStop,
+) -> Vec<(String, String)> {
+    hex_lines(
+        &protocol::FUSION_KEYS,
+        protocol::fusion_values(fusion, stop),
+    )
+}
+
+/// The `HEADING-RESULT` lines the firmware must print for the host's heading search and its
+/// digest.
+pub fn expected_heading(h: &orbfix::fix::HeadingFix, digest: u32) -> Vec<(String, String)> {
+    hex_lines(&protocol::HEADING_KEYS, protocol::heading_values(h, digest))
 }
 
 /// The `RESULT` lines the firmware must print for a report and its digest (same format).
@@ -66,6 +106,35 @@ pub fn parse_report(text: &str) -> Result<FirmwareReport> {
                 let value = it.collect::<Vec<_>>().join(" ");
                 r.results.push((key, value));
             }
+            Some(t) if t == protocol::FUSION => {
+                r.fusion = Some(ExtraReport {
+                    ticks: num(it.next(), line)?,
+                    ..ExtraReport::default()
+                });
+            }
+            Some(t) if t == protocol::HEADING => {
+                let headings = num(it.next(), line)?;
+                r.heading = Some(ExtraReport {
+                    headings,
+                    ticks: num(it.next(), line)?,
+                    ..ExtraReport::default()
+                });
+            }
+            Some(t) if t == protocol::FUSION_RESULT || t == protocol::HEADING_RESULT => {
+                let entry = if t == protocol::FUSION_RESULT {
+                    r.fusion.as_mut()
+                } else {
+                    r.heading.as_mut()
+                }
+                .with_context(|| {
+                    format!(
+                        "firmware report line {line:?} comes before its {} line",
+                        t.trim_end_matches("-RESULT")
+                    )
+                })?;
+                let key = it.next().context("result line without a key")?.to_string();
+                entry.results.push((key, it.collect::<Vec<_>>().join(" ")));
+            }
             Some(t) if t == protocol::STACK => {
                 r.stack_peak_bytes = num(it.next(), line)?;
                 r.stack_region_bytes = num(it.next(), line)?;
@@ -95,18 +164,23 @@ pub fn parse_report(text: &str) -> Result<FirmwareReport> {
 /// Keys whose values differ between the firmware's report and the host's expectation
 /// (missing and unexpected keys included).
 pub fn mismatches(report: &FirmwareReport, expected: &[(String, String)]) -> Vec<String> {
+    keyed_mismatches(&report.results, expected)
+}
+
+/// Keys whose values differ between reported `results` and `expected` (missing and
+/// unexpected keys included).
+pub fn keyed_mismatches(
+    results: &[(String, String)],
+    expected: &[(String, String)],
+) -> Vec<String> {
     let mut out = Vec::new();
     for (k, want) in expected {
-        let got = report
-            .results
-            .iter()
-            .find(|(rk, _)| rk == k)
-            .map(|(_, v)| v);
+        let got = results.iter().find(|(rk, _)| rk == k).map(|(_, v)| v);
         if got != Some(want) {
             out.push(k.clone());
         }
     }
-    for (k, _) in &report.results {
+    for (k, _) in results {
         if !expected.iter().any(|(ek, _)| ek == k) {
             out.push(k.clone());
         }

@@ -75,6 +75,63 @@ pub struct StopBudget {
     pub mismatches: Vec<String>,
     /// Deepest stack use, bytes.
     pub stack_peak_bytes: u64,
+    /// The filter's per-stop work on this stop's fix, if measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fusion: Option<FusionBudget>,
+    /// The heading search on this stop, if measured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heading_search: Option<HeadingBudget>,
+}
+
+/// The fusion filter's work at one stop on the target ([`orbfix::fix::protocol::fusion_stop`]:
+/// prediction over an odometry leg, the next search radius, the fix's update).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FusionBudget {
+    /// Guest instructions (SysTick ticks x 40; resolution 40 instructions).
+    pub instructions: u64,
+    /// Estimated milliseconds at the stated clock and CPI.
+    pub ms: f64,
+    /// Length of the odometry leg predicted over, metres.
+    pub leg_m: f64,
+    /// The update folded the fix in (gain and Joseph update; else the refusal path).
+    pub accepted: bool,
+    /// Squared Mahalanobis distance of the fix's innovation.
+    pub mahalanobis2: f64,
+    /// Search radius after the update, metres.
+    pub search_radius_m: f64,
+    /// Every reported filter value equals the host's run of the same code.
+    pub bit_exact: bool,
+    /// Keys that differed.
+    pub mismatches: Vec<String>,
+}
+
+/// The heading search on the target ([`orbfix::fix::run_heading_search`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct HeadingBudget {
+    /// Headings tried.
+    pub headings: u64,
+    /// Step between headings, degrees.
+    pub step_deg: f64,
+    /// Heading sigma the search was sized for (`HeadingSearch::for_sigma`), degrees.
+    pub sigma_deg: f64,
+    /// Guest instructions of the whole search (SysTick ticks x 40).
+    pub instructions: u64,
+    /// Estimated milliseconds at the stated clock and CPI.
+    pub ms: f64,
+    /// Instructions per heading tried.
+    pub instructions_per_heading: f64,
+    /// Error of the heading estimate given to the search, degrees.
+    pub estimate_error_deg: f64,
+    /// Error of the heading the search reported, degrees.
+    pub heading_error_deg: f64,
+    /// Position error of the search's fix, metres.
+    pub error_m: f64,
+    /// Status of the search's fix.
+    pub status: String,
+    /// Every reported value (position, heading, scores, status) equals the host's run.
+    pub bit_exact: bool,
+    /// Keys that differed.
+    pub mismatches: Vec<String>,
 }
 
 /// The flight budget (written as JSON and as docs/timing-budget.md).
@@ -134,6 +191,12 @@ pub struct Budget {
     pub stereo_work_bytes: u64,
     /// Guest instructions per SysTick tick.
     pub instructions_per_tick: u64,
+    /// The filter's per-stop work: the largest over the stops that measured it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fusion: Option<FusionBudget>,
+    /// The heading search: the largest over the stops that ran it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heading_search: Option<HeadingBudget>,
     /// Every stop.
     pub stops: Vec<StopBudget>,
 }
@@ -202,6 +265,8 @@ pub fn stop_budget(
         bit_exact: report.ok && mismatches.is_empty(),
         mismatches,
         stack_peak_bytes: report.stack_peak_bytes,
+        fusion: None,
+        heading_search: None,
     }
 }
 
@@ -244,12 +309,33 @@ pub fn assemble(
         external_input_bytes: sizes.external_input_bytes,
         external_scratch_bytes: sizes.external_scratch_bytes,
         working_total_bytes: working + sizes.external_scratch_bytes,
-        bit_exact: !stops.is_empty() && stops.iter().all(|s| s.bit_exact),
+        bit_exact: !stops.is_empty()
+            && stops.iter().all(|s| {
+                s.bit_exact
+                    && s.fusion.as_ref().is_none_or(|f| f.bit_exact)
+                    && s.heading_search.as_ref().is_none_or(|h| h.bit_exact)
+            }),
         mismatches: stops
             .iter()
             .enumerate()
-            .flat_map(|(i, s)| s.mismatches.iter().map(move |m| format!("stop {i}: {m}")))
+            .flat_map(|(i, s)| {
+                let fusion = s.fusion.iter().flat_map(|f| &f.mismatches);
+                let heading = s.heading_search.iter().flat_map(|h| &h.mismatches);
+                s.mismatches
+                    .iter()
+                    .map(move |m| format!("stop {i}: {m}"))
+                    .chain(fusion.map(move |m| format!("stop {i}: fusion {m}")))
+                    .chain(heading.map(move |m| format!("stop {i}: heading search {m}")))
+            })
             .collect(),
+        fusion: stops
+            .iter()
+            .filter_map(|s| s.fusion.clone())
+            .max_by_key(|f| f.instructions),
+        heading_search: stops
+            .iter()
+            .filter_map(|s| s.heading_search.clone())
+            .max_by_key(|h| h.instructions),
         firmware_ok,
         panic_free: panic_sites.is_empty(),
         panic_sites: panic_sites
@@ -293,6 +379,61 @@ fn verdict(v: u64, budget: u64, goal: u64) -> &'static str {
 }
 
 impl Budget {
+    /// The section on the fusion filter and the heading search (nothing when neither ran).
+    fn markdown_drive(&self, m: &mut String) {
+        if self.fusion.is_none() && self.heading_search.is_none() {
+            return;
+        }
+        m.push_str("## A stop of a drive: fusion filter and heading search\n\n");
+        m.push_str("| what | stop | instructions | ms | detail | bit-exact |\n");
+        m.push_str("|---|---:|---:|---:|---|---|\n");
+        for (i, s) in self.stops.iter().enumerate() {
+            if let Some(f) = &s.fusion {
+                m.push_str(&format!(
+                    "| fusion filter (predict over {:.0} m, search radius, update) | {i} | {} | {:.4} | {}, squared Mahalanobis {:.3}, next radius {:.1} m | {} |\n",
+                    f.leg_m,
+                    thousands(f.instructions),
+                    f.ms,
+                    if f.accepted { "fix accepted" } else { "fix refused" },
+                    f.mahalanobis2,
+                    f.search_radius_m,
+                    f.bit_exact
+                ));
+            }
+        }
+        for (i, s) in self.stops.iter().enumerate() {
+            if let Some(h) = &s.heading_search {
+                m.push_str(&format!(
+                    "| heading search ({} headings, step {} deg, sigma {} deg) | {i} | {} | {:.1} | {} per heading ({:.2} x this stop's fix); estimate {:+.2} deg off, found {:+.2} deg off; fix {:.3} m off, {} | {} |\n",
+                    h.headings,
+                    h.step_deg,
+                    h.sigma_deg,
+                    thousands(h.instructions),
+                    h.ms,
+                    thousands(h.instructions_per_heading.round() as u64),
+                    h.instructions_per_heading / s.instructions.max(1) as f64,
+                    h.estimate_error_deg,
+                    h.heading_error_deg,
+                    h.error_m,
+                    h.status,
+                    h.bit_exact
+                ));
+            }
+        }
+        m.push('\n');
+        m.push_str(
+            "Measured in the same firmware run, after the fix: the filter's work at one stop of \
+             a drive as `orbfix traverse` does it (`orbfix::fix::protocol::fusion_stop`: the \
+             prediction over the odometry leg, the search radius, the update of the stop's fix; \
+             the traverse's default filter settings, the filter placed so that its prediction \
+             lands 0.7 m from the truth, as a dead-reckoned prior does), and the heading search \
+             `orbfix::fix::run_heading_search` on the same inputs and the fix's own scratch (no \
+             static memory of its own; its stack is in the stack peak below), around a heading \
+             estimate off by the stated amount. Both report their results in the result \
+             protocol and are compared with the host's run of the same code.\n\n",
+        );
+    }
+
     /// The budget as the Markdown page docs/timing-budget.md.
     pub fn markdown(&self, command: &str) -> String {
         let mut m = String::new();
@@ -391,6 +532,7 @@ impl Budget {
             m.push_str(&format!("- stop {i}: {}\n", s.description));
         }
         m.push('\n');
+        self.markdown_drive(&mut m);
         m.push_str("## Memory\n\n");
         m.push_str("| what | bytes | |\n|---|---:|---|\n");
         m.push_str(&format!(

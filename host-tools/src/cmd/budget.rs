@@ -3,13 +3,19 @@
 
 use anyhow::{bail, ensure, Context, Result};
 use orbfix::fix::FixConfig;
-use orbfix_host::budget::{self, Estimate, Vectors};
+use orbfix_host::budget::{self, Estimate, FusionCase, HeadingCase, Vectors};
 use orbfix_host::eval::pipeline::{DepthSource, PipelineOptions};
 use orbfix_host::fix::FixRunner;
+use orbfix_host::traverse::TraverseOptions;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+/// Odometry leg of the measured filter work, metres (the middle of the traverse's legs).
+const FUSION_LEG_M: f64 = 40.0;
+/// Where the measured filter's prediction lands from the truth, metres (east, north).
+const FUSION_PRIOR_OFFSET_M: (f64, f64) = (0.5, -0.5);
 
 /// Flight targets the budget can be measured on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -33,8 +39,12 @@ impl Target {
 /// build firmware/ for thumbv7em-none-eabihf; run it under
 /// `qemu-system-arm -machine mps2-an500 -icount shift=0`; read per-stage instruction counts,
 /// the stack high-water mark and the results from its semihosting report, and flash and
-/// static RAM from the ELF; write the table to --md and --json. Fails (after writing both)
-/// if the firmware's results are not bit-exact with the host's.
+/// static RAM from the ELF; write the table to --md and --json. After the fix, the firmware
+/// also times the fusion filter's work at the stop (prediction over a 40 m odometry leg, the
+/// search radius, the fix's update, with `orbfix traverse`'s default filter settings) and, on
+/// the first --heading-stops stops, the heading search for --heading-sigma-deg around an
+/// estimate --heading-offset-deg off the truth. Fails (after writing both) if any result is
+/// not bit-exact with the host's.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Flight target.
@@ -78,6 +88,17 @@ pub struct Args {
     pub allow_panic: bool,
     #[command(flatten)]
     pub weights: orbfix_host::nn::weights_file::WeightsArg,
+    /// Stops (the first ones) on which the firmware also runs the heading search (0: none;
+    /// each costs the search's headings times a whole fix) [default: every stop].
+    #[arg(long, default_value_t = 20, hide_default_value = true)]
+    pub heading_stops: usize,
+    /// Heading sigma the measured search is sized for, degrees (with `orbfix traverse`'s
+    /// tolerance and step: sigma 2 gives 5 headings 2 deg apart).
+    #[arg(long, default_value_t = 2.0)]
+    pub heading_sigma_deg: f64,
+    /// Error of the heading estimate given to the measured search, degrees.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.5)]
+    pub heading_offset_deg: f64,
     /// Give up on QEMU after this many seconds.
     #[arg(long, default_value_t = 300)]
     pub qemu_timeout_s: u64,
@@ -273,6 +294,22 @@ pub fn run(args: Args) -> Result<()> {
     // The firmware sets the baseline from the vectors; everything else is the default.
     cfg.stereo.matcher.baseline_m = opts.stereo_params().baseline_m;
     let runner = FixRunner { weights, cfg };
+    ensure!(
+        args.heading_offset_deg.is_finite() && args.heading_offset_deg.abs() <= 20.0,
+        "--heading-offset-deg must be within +-20 degrees, got {}",
+        args.heading_offset_deg
+    );
+    let drive = TraverseOptions::default();
+    let heading_search = if args.heading_stops > 0 {
+        Some(drive.heading_search(args.heading_sigma_deg)?.with_context(|| {
+            format!(
+                "--heading-sigma-deg {} needs no heading search (at most the traverse's tolerance, {} deg): pass a larger sigma or --heading-stops 0",
+                args.heading_sigma_deg, drive.heading_tolerance_deg
+            )
+        })?)
+    } else {
+        None
+    };
     let env_file = toolchain_env(&repo, args.toolchain_env.clone())?;
     let est = Estimate {
         target: args.target.name().to_string(),
@@ -289,8 +326,31 @@ pub fn run(args: Args) -> Result<()> {
             "budget: stop {i}: rendering from world seed {} (test zone)",
             args.seed
         );
-        let v = Vectors::world_stop(args.seed, i, &opts, &runner.weights)?;
+        let mut v = Vectors::world_stop(args.seed, i, &opts, &runner.weights)?;
+        let true_heading = v.pose.heading_deg;
+        v.fusion = Some(FusionCase::before_stop(
+            drive.fusion_config(),
+            v.truth_m,
+            FUSION_PRIOR_OFFSET_M,
+            FUSION_LEG_M,
+            true_heading as f64,
+        ));
+        if i < args.heading_stops {
+            v.heading = heading_search.map(|search| HeadingCase {
+                search,
+                estimate_deg: (true_heading as f64 + args.heading_offset_deg) as f32,
+            });
+        }
         let host = v.host_run(&runner)?;
+        let host_fusion = v
+            .fusion
+            .as_ref()
+            .map(|c| c.host_run(&host.report))
+            .transpose()?;
+        if v.heading.is_some() {
+            eprintln!("budget: stop {i}: heading search on the host");
+        }
+        let host_heading = v.host_heading_search(&runner)?;
         v.write(&vectors_dir, &cfg)?;
         eprintln!("budget: stop {i}: {}", v.source);
         let (elf, free) = match build_firmware(&repo, &env_file, &vectors_dir, &target_dir, false) {
@@ -337,7 +397,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         let expected = budget::expected_results(&host.report, host.digest);
         let mism = budget::mismatches(&report, &expected);
-        let stop = budget::stop_budget(
+        let mut stop = budget::stop_budget(
             &est,
             v.source.clone(),
             &report,
@@ -350,6 +410,60 @@ pub fn run(args: Args) -> Result<()> {
             "budget: stop {i}: {} instructions, fix error {:.3} m ({}, {}), bit_exact {}",
             stop.instructions, stop.error_m, stop.status, stop.path, stop.bit_exact
         );
+        if let (Some(case), Some((filter, fs))) = (&v.fusion, &host_fusion) {
+            let got = report.fusion.clone().unwrap_or_default();
+            let mism = budget::keyed_mismatches(&got.results, &budget::expected_fusion(filter, fs));
+            let insn = got.ticks * budget::INSTRUCTIONS_PER_TICK;
+            let f = budget::FusionBudget {
+                instructions: insn,
+                ms: est.ms(insn),
+                leg_m: case.leg.distance_m as f64,
+                accepted: fs.outcome.accepted(),
+                mahalanobis2: fs.outcome.mahalanobis2 as f64,
+                search_radius_m: filter.search_radius_m() as f64,
+                bit_exact: report.ok && report.fusion.is_some() && mism.is_empty(),
+                mismatches: mism,
+            };
+            eprintln!(
+                "budget: stop {i}: fusion filter {} instructions ({}), bit_exact {}",
+                f.instructions,
+                if f.accepted { "accepted" } else { "refused" },
+                f.bit_exact
+            );
+            stop.fusion = Some(f);
+        }
+        if let (Some(case), Some((hf, digest))) = (&v.heading, &host_heading) {
+            let got = report.heading.clone().unwrap_or_default();
+            let mism =
+                budget::keyed_mismatches(&got.results, &budget::expected_heading(hf, *digest));
+            let insn = got.ticks * budget::INSTRUCTIONS_PER_TICK;
+            let herr = |h: f64| (h - true_heading as f64 + 540.0).rem_euclid(360.0) - 180.0;
+            let h = budget::HeadingBudget {
+                headings: case.search.count() as u64,
+                step_deg: case.search.step_deg() as f64,
+                sigma_deg: args.heading_sigma_deg,
+                instructions: insn,
+                ms: est.ms(insn),
+                instructions_per_heading: insn as f64 / case.search.count() as f64,
+                estimate_error_deg: herr(case.estimate_deg as f64),
+                heading_error_deg: herr(hf.heading_deg as f64),
+                error_m: (hf.report.x_m as f64 - v.truth_m.0)
+                    .hypot(hf.report.y_m as f64 - v.truth_m.1),
+                status: hf.report.status.name().to_string(),
+                bit_exact: report.ok
+                    && report
+                        .heading
+                        .as_ref()
+                        .is_some_and(|r| r.headings == case.search.count() as u64)
+                    && mism.is_empty(),
+                mismatches: mism,
+            };
+            eprintln!(
+                "budget: stop {i}: heading search ({} headings) {} instructions, heading {:+.2} deg off (estimate {:+.2}), bit_exact {}",
+                h.headings, h.instructions, h.heading_error_deg, h.estimate_error_deg, h.bit_exact
+            );
+            stop.heading_search = Some(h);
+        }
         stops.push(stop);
     }
     let mut b = budget::assemble(&est, stops, &sizes, all_ok, &sites, format!("{cfg:?}"));
@@ -364,13 +478,21 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     let command = format!(
-        "orbfix budget --target {} --clock-mhz {} --cpi {} --seed {} --stops {} --depth {} --json {}{}",
+        "orbfix budget --target {} --clock-mhz {} --cpi {} --seed {} --stops {} --depth {}{} --json {}{}",
         est.target,
         args.clock_mhz,
         args.cpi,
         args.seed,
         args.stops,
         args.depth.name(),
+        if args.heading_stops >= args.stops && args.heading_sigma_deg == 2.0 && args.heading_offset_deg == 1.5 {
+            String::new()
+        } else {
+            format!(
+                " --heading-stops {} --heading-sigma-deg {} --heading-offset-deg {}",
+                args.heading_stops, args.heading_sigma_deg, args.heading_offset_deg
+            )
+        },
         args.json.display(),
         if args.allow_panic {
             " --allow-panic"

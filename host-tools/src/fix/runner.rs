@@ -116,11 +116,29 @@ impl FixRunner {
         search: &HeadingSearch,
     ) -> anyhow::Result<(HeadingFix, FixOutcome)> {
         let depth = FixDepth::from_images(depths);
-        let (hf, mut out) =
+        self.run_heading_search_with(params, pose, frames, depth, product, search)
+    }
+
+    /// As [`FixRunner::run_heading_search`] with any depth source; the outcome's digest is
+    /// [`fix::output_digest`] of the best report over the scratch the search left.
+    pub fn run_heading_search_with(
+        &self,
+        params: &CameraParams,
+        pose: &RoverPose,
+        frames: [Option<ImageView<'_>>; 4],
+        depth: FixDepth<'_>,
+        product: &[u8],
+        search: &HeadingSearch,
+    ) -> anyhow::Result<(HeadingFix, FixOutcome)> {
+        let n = self.cfg.grid.n;
+        let ((hf, digest), mut out) =
             self.with_scratch(params, pose, frames, depth, product, |inputs, scratch| {
-                fix::run_heading_search(inputs, &self.cfg, search, scratch, &mut NoClock)
+                let hf = heading_search(inputs, &self.cfg, search, scratch)?;
+                let digest = fix::output_digest(&hf.report, scratch, n);
+                Ok((hf, digest))
             })?;
         out.report = hf.report.clone();
+        out.digest = digest;
         Ok((hf, out))
     }
 
@@ -188,6 +206,18 @@ impl FixRunner {
             },
         ))
     }
+}
+
+/// The core's heading search, out of line: inlined into its caller (with the digest after
+/// it) the frame grows past the stack-probe check's 4 KiB (scripts/stack-probe-check.py).
+#[inline(never)]
+fn heading_search(
+    inputs: &FixInputs<'_>,
+    cfg: &FixConfig,
+    search: &HeadingSearch,
+    scratch: &mut FixScratch<'_>,
+) -> Result<HeadingFix, fix::FixError> {
+    fix::run_heading_search(inputs, cfg, search, scratch, &mut NoClock)
 }
 
 fn empty_summary() -> orbfix::fix::ReprojectionSummary {
