@@ -166,7 +166,7 @@ impl DemSite {
             })?;
             ensure!(
                 meta.is_file(),
-                "the {what} {} is not a regular file: give a GeoTIFF file",
+                "the {what} {} is not a regular file: give the path of a .tif file",
                 p.display()
             );
             let bytes = std::fs::read(p)
