@@ -243,5 +243,45 @@ gdal_translate -q -a_srs EPSG:32633 "$T/site_ortho.tif" "$T/site_ortho_utm.tif"
 refused_cmd "orbfix map --dem refuses a DEM and orthoimage in different CRSs" "gdalwarp" \
   "$ORBFIX" map --dem "$T/site_dem.tif" --ortho "$T/site_ortho_utm.tif" --x 100 --y 900 --out "$T/x.png"
 
+# `orbfix generate --dem`: a smoke dataset of the GDAL-written site; its rows' heights are the
+# DEM's (bilinear between pixel centres, read by GDAL), its satellite crops the orthoimage's
+# 2 x 2 means, its dataset.json the site's CRS offset.
+"$ORBFIX" generate --preset smoke --seed 3 --dem "$T/site_dem.tif" --ortho "$T/site_ortho.tif" \
+  --dem-margin 30 --out "$T/site_ds" --quiet >/dev/null 2>&1
+check "orbfix generate --dem: rows on the site with GDAL's heights, crops from the orthoimage" "$PY" - "$T" <<'EOF'
+import json, sys
+import numpy as np
+from osgeo import gdal
+t = sys.argv[1]
+info = json.load(open(f"{t}/site_ds/dataset.json"))
+ox, oy = info["dem_frame"]["crs_offset_m"]
+assert (ox, oy) == (4590000.0, 1090000.0), info["dem_frame"]
+assert info["zones"] == [["dem", [30.0, 830.0, 170.0, 970.0]]], info["zones"]
+o = gdal.Open(f"{t}/site_ortho.tif"); a = o.ReadAsArray().astype(float); ga = o.GetGeoTransform()
+d = gdal.Open(f"{t}/site_dem.tif"); h = d.ReadAsArray().astype(float); gd = d.GetGeoTransform()
+rows = [json.loads(l) for l in open(f"{t}/site_ds/manifest.jsonl")]
+assert len(rows) == 6
+for r in rows:
+    e, n = r["x_m"] + ox, r["y_m"] + oy
+    c, k = (e - gd[0]) / gd[1] - 0.5, (n - gd[3]) / gd[5] - 0.5
+    c0, k0 = int(c), int(k)
+    fc, fk = c - c0, k - k0
+    z = (h[k0, c0] * (1 - fc) + h[k0, c0 + 1] * fc) * (1 - fk) + (h[k0 + 1, c0] * (1 - fc) + h[k0 + 1, c0 + 1] * fc) * fk
+    assert abs(z - r["ground_z_m"]) < 1e-3, (r["id"], z, r["ground_z_m"])
+    s = gdal.Open(f"{t}/site_ds/{r['satellite']}").ReadAsArray().astype(float)
+    m = 0.5
+    xs = e - 25 + (np.arange(100) + 0.5) * m
+    ys = n + 25 - (np.arange(100) + 0.5) * m
+    cc = np.round((xs - ga[0]) / ga[1] - 1).astype(int)
+    rr = np.round((ys - ga[3]) / ga[5] - 1).astype(int)
+    w = (a[np.ix_(rr, cc)] + a[np.ix_(rr + 1, cc)] + a[np.ix_(rr, cc + 1)] + a[np.ix_(rr + 1, cc + 1)]) / 4
+    corr = np.corrcoef(s.ravel(), w.ravel())[0, 1]
+    assert corr > 0.9 and np.abs(s - w).mean() < 12, (r["id"], corr, np.abs(s - w).mean())
+EOF
+refused_cmd "orbfix generate --dem refuses a map sun (the crops are the orthoimage)" "no effect with --dem" \
+  "$ORBFIX" generate --dem "$T/site_dem.tif" --ortho "$T/site_ortho.tif" --map-sun-elevation 40 --out "$T/x"
+refused_cmd "orbfix generate --dem refuses a margin that leaves no site" "dem-margin" \
+  "$ORBFIX" generate --dem "$T/site_dem.tif" --ortho "$T/site_ortho.tif" --dem-margin 120 --out "$T/x"
+
 echo "$pass passed, $fail failed"
 [ "$fail" = 0 ]

@@ -135,7 +135,7 @@ fn manifest_rows_match_zones_and_read_back() {
         assert!(r.range.is_none());
     }
     // Rows are a pure function of (config, index).
-    let world = cfg.world();
+    let world = cfg.world().unwrap();
     assert_eq!(cfg.location(&world, 5).unwrap(), ds.rows[5]);
     let text = std::fs::read_to_string(t.path().join("manifest.jsonl")).unwrap();
     for key in [
@@ -163,7 +163,7 @@ fn attitude_is_drawn_within_bounds_and_level_rows_are_unchanged() {
     let level = GenerateConfig::preset(Preset::Smoke, 9);
     let mut tilted = level.clone();
     tilted.max_attitude_deg = 5.0;
-    let w = level.world();
+    let w = level.world().unwrap();
     let mut any = false;
     for i in 0..6 {
         let a = level.location(&w, i).unwrap();
@@ -186,7 +186,7 @@ fn attitude_is_drawn_within_bounds_and_level_rows_are_unchanged() {
 fn flat_world_has_zero_relief_same_albedo() {
     let mut cfg = GenerateConfig::preset(Preset::Smoke, 3);
     cfg.flat = true;
-    let w = cfg.world();
+    let w = cfg.world().unwrap();
     let relief = orbfix_host::world::World::new(3);
     for r in 0..6 {
         let row = cfg.location(&w, r).unwrap();

@@ -234,3 +234,166 @@ fn dem_site_map_is_the_orthoimage_and_the_fix_finds_two_stops() {
         assert!(e < 1.0, "stop {truth:?}: fix error {e} m ({r:?})");
     }
 }
+
+/// `orbfix generate --dem --ortho`: a smoke dataset from the site, through the same world
+/// (`World::from_geotiff`) and map code (`map_region`) as `orbfix map --dem` and `orbfix eval
+/// --dem`; it opens with the dataset reader, its rows lie on the site with the DEM's heights,
+/// its satellite crops are the orthoimage, it resumes, and bad files and options are refused.
+#[test]
+fn generate_renders_a_dataset_from_the_dem_site() {
+    use orbfix_host::dataset::{self, Dataset, DemSite, GenerateConfig, Preset};
+    let dir = tempfile::tempdir().unwrap();
+    let (dem_path, ortho_path) = write_site(dir.path());
+    let mut cfg = GenerateConfig::preset(Preset::Smoke, 4);
+    cfg.range = true;
+    // Smoke crops: 100 px at 0.5 m = 50 m, so the margin must be at least 25 m.
+    cfg.dem = Some(DemSite::new(&dem_path, &ortho_path, MapSource::Ortho, 30.0).unwrap());
+    let out = dir.path().join("ds");
+    let rep = dataset::generate(&cfg, &out, None, false).unwrap();
+    assert_eq!((rep.rendered, rep.skipped), (6, 0));
+
+    let ds = Dataset::open(&out).unwrap();
+    assert_eq!(ds.rows.len(), 6);
+    let frame = ds
+        .info
+        .dem_frame
+        .as_ref()
+        .expect("dataset.json records the site's frame");
+    assert_eq!(frame.crs_offset_m, [0.0, 0.0]);
+    assert_eq!(frame.extent_m, [WEST, NORTH - SIDE_M, WEST + SIDE_M, NORTH]);
+    let zone = [
+        WEST + 30.0,
+        NORTH - SIDE_M + 30.0,
+        WEST + SIDE_M - 30.0,
+        NORTH - 30.0,
+    ];
+    assert_eq!(ds.info.zones, vec![("dem".to_string(), zone)]);
+    assert_eq!(ds.info.config.dem, cfg.dem);
+
+    let world = World::from_geotiff(&dem_path, &ortho_path).unwrap();
+    let ortho = orbfix_host::geotiff::read_geotiff(&ortho_path).unwrap();
+    for row in &ds.rows {
+        assert!(
+            row.x_m >= zone[0] && row.x_m < zone[2] && row.y_m >= zone[1] && row.y_m < zone[3],
+            "row {} at ({}, {}) is outside {zone:?}",
+            row.id,
+            row.x_m,
+            row.y_m
+        );
+        // The DEM's heights (about 300 m on this site; the procedural world lies near 0).
+        assert!((row.ground_z_m - world.height_m(row.x_m, row.y_m)).abs() < 1e-3);
+        assert!(
+            row.ground_z_m > 250.0 && row.ground_z_m < 350.0,
+            "{}",
+            row.ground_z_m
+        );
+        // Views: the site's ground, neither black nor saturated, in the lower half.
+        for v in ds.load_views(row).unwrap() {
+            let lower: Vec<f64> = v.rows().skip(60).flatten().map(|p| p[0] as f64).collect();
+            let mean = lower.iter().sum::<f64>() / lower.len() as f64;
+            assert!(
+                mean > 10.0 && mean < 245.0,
+                "row {} view mean {mean}",
+                row.id
+            );
+        }
+        // Satellite crop: the orthoimage's 2 x 2 means (0.5 m crop pixels over 0.25 m
+        // orthoimage pixels, not aligned: compared with the nearest 2 x 2 block).
+        let sat = ds.load_satellite(row).unwrap();
+        let (x0, y0) = (row.x_m - 25.0, row.y_m + 25.0);
+        let (mut sa, mut sb, mut saa, mut sbb, mut sab, mut n) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        let mut abs = 0.0;
+        for (c, r, p) in sat.enumerate_pixels() {
+            let x = x0 + (c as f64 + 0.5) * 0.5;
+            let y = y0 - (r as f64 + 0.5) * 0.5;
+            let oc = ((x - WEST) / 0.25 - 1.0).round() as usize;
+            let or = ((NORTH - y) / 0.25 - 1.0).round() as usize;
+            let at = |dc: usize, dr: usize| ortho.values[(or + dr) * ortho.width + oc + dc] as f64;
+            let want = (at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1)) / 4.0;
+            let got = p[0] as f64;
+            sa += got;
+            sb += want;
+            saa += got * got;
+            sbb += want * want;
+            sab += got * want;
+            abs += (got - want).abs();
+            n += 1.0;
+        }
+        let corr = (sab / n - sa / n * sb / n)
+            / ((saa / n - (sa / n).powi(2)).sqrt() * (sbb / n - (sb / n).powi(2)).sqrt());
+        assert!(
+            corr > 0.9,
+            "row {}: crop vs orthoimage correlation {corr}",
+            row.id
+        );
+        assert!(
+            abs / n < 12.0,
+            "row {}: mean |crop - orthoimage| {}",
+            row.id,
+            abs / n
+        );
+        let range = row.range.as_ref().expect("range images were asked for");
+        assert!(range.iter().all(|p| out.join(p).is_file()));
+    }
+    // Rows are a pure function of (config, index) on a DEM site too.
+    let w = cfg.world().unwrap();
+    assert_eq!(cfg.location(&w, 5).unwrap(), ds.rows[5]);
+
+    // Resume: everything is kept.
+    let again = dataset::generate(&cfg, &out, None, false).unwrap();
+    assert_eq!((again.rendered, again.skipped), (0, 6));
+
+    // Bad files and options, each with a message that says what is wrong.
+    let err = |r: anyhow::Result<()>| format!("{:#}", r.unwrap_err());
+    let missing = dir.path().join("missing.tif");
+    let e = err(DemSite::new(&missing, &ortho_path, MapSource::Ortho, 30.0).map(|_| ()));
+    assert!(
+        e.contains("cannot open the DEM") && e.contains("missing.tif"),
+        "{e}"
+    );
+    let e = err(DemSite::new(&dem_path, dir.path(), MapSource::Ortho, 30.0).map(|_| ()));
+    assert!(
+        e.contains("orthoimage") && e.contains("not a regular file"),
+        "{e}"
+    );
+    let not_tiff = out.join("manifest.jsonl");
+    let mut bad = cfg.clone();
+    bad.dem = Some(DemSite::new(&not_tiff, &ortho_path, MapSource::Ortho, 30.0).unwrap());
+    let e = err(dataset::generate(&bad, &dir.path().join("bad"), None, false).map(|_| ()));
+    assert!(e.contains("reading the DEM"), "{e}");
+    assert!(
+        !dir.path().join("bad").exists(),
+        "nothing is written for a bad DEM"
+    );
+    let mut wide = cfg.clone();
+    wide.dem.as_mut().unwrap().margin_m = 90.0;
+    let e = err(dataset::generate(&wide, &dir.path().join("wide"), None, false).map(|_| ()));
+    assert!(
+        e.contains("--dem-margin 90") && e.contains("x 1000.0..1160.0"),
+        "{e}"
+    );
+    let mut thin = cfg.clone();
+    thin.dem.as_mut().unwrap().margin_m = 10.0;
+    let e = err(thin.validate());
+    assert!(e.contains("half the satellite crop"), "{e}");
+    let mut flat = cfg.clone();
+    flat.flat = true;
+    assert!(err(flat.validate()).contains("--flat"));
+
+    // A changed orthoimage: the old configuration refuses it, a new one is another dataset.
+    let inverted: Vec<u8> = ortho.values.iter().map(|&v| 255 - v as u8).collect();
+    write_ortho_u8(
+        &ortho_path,
+        ortho.width,
+        ortho.height,
+        &inverted,
+        &Georeference::new(WEST, NORTH, 0.25).unwrap(),
+    )
+    .unwrap();
+    let e = err(cfg.world().map(|_| ()));
+    assert!(e.contains("changed since"), "{e}");
+    let mut changed = cfg.clone();
+    changed.dem = Some(DemSite::new(&dem_path, &ortho_path, MapSource::Ortho, 30.0).unwrap());
+    let e = err(dataset::generate(&changed, &out, None, false).map(|_| ()));
+    assert!(e.contains("other options"), "{e}");
+}

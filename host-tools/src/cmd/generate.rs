@@ -1,13 +1,20 @@
 //! `orbfix generate`: render a dataset of locations (views, satellite crops, manifest).
 
 use anyhow::{ensure, Context};
-use orbfix_host::dataset::{self, DegRange, GenerateConfig, Preset, Shard};
+use orbfix_host::dataset::{self, DegRange, DemSite, GenerateConfig, Preset, Shard};
+use orbfix_host::world::dem::MapSource;
 use std::path::PathBuf;
 
 /// Render a dataset: per location the four ground views, the satellite crop (and optionally
 /// range images and a point cloud), plus `manifest.jsonl` and `dataset.json` (docs/dataset.md).
 /// Deterministic and resumable: run it again to continue an interrupted run.
 #[derive(clap::Args, Debug)]
+#[command(
+    after_help = "Examples:\n  orbfix generate --preset smoke --seed 2 --out out/ds\n  \
+                  orbfix generate --preset small --dem dem.tif --ortho ortho.tif --out out/site-ds\n  \
+                  (a real site: views rendered over the DEM with the orthoimage as albedo, \
+                  satellite crops from the orthoimage; docs/dataset.md)"
+)]
 pub struct Args {
     /// Size preset: smoke (seconds, CI), small (1,000 at 640x360), paper (606,000 at 1920x1080).
     #[arg(long, value_enum, default_value = "smoke")]
@@ -36,6 +43,25 @@ pub struct Args {
     /// Zero relief with the same albedo texture.
     #[arg(long)]
     flat: bool,
+    /// A real DEM (single-band GeoTIFF, projected CRS in metres; docs/interop.md) instead of
+    /// the procedural world, the same terrain `orbfix map --dem` and `orbfix eval --dem`
+    /// use: locations are drawn inside it (--seed then only draws them). Needs --ortho.
+    #[arg(long, requires = "ortho", conflicts_with_all = ["flat", "combine"])]
+    dem: Option<PathBuf>,
+    /// The orthoimage GeoTIFF of --dem (same CRS): the albedo of the views and, by default,
+    /// the satellite crops.
+    #[arg(long, requires = "dem")]
+    ortho: Option<PathBuf>,
+    /// With --dem: satellite crops are the orthoimage resampled to their grid (ortho, the
+    /// default: what a mission has; --map-sun-* then has no effect and is refused) or the
+    /// DEM rendered with the orthoimage as albedo under --map-sun-* (render).
+    #[arg(long, value_enum, requires = "dem")]
+    dem_map: Option<MapSource>,
+    /// With --dem: metres every location keeps from the edges of the rasters' common region
+    /// (default 150: a 300 m map around any location stays on them; at least half the
+    /// satellite crop's side).
+    #[arg(long, requires = "dem", allow_negative_numbers = true)]
+    dem_margin: Option<f64>,
     /// Render only shard I of N (0-based, I < N), e.g. $SLURM_ARRAY_TASK_ID/$N; writes
     /// manifest-I-of-N.jsonl. Combine the shards with --combine afterwards.
     #[arg(long)]
@@ -119,6 +145,19 @@ pub fn config(args: &Args) -> anyhow::Result<GenerateConfig> {
         cfg.counts = split_counts(n)?;
     }
     cfg.flat = args.flat;
+    if let (Some(dem), Some(ortho)) = (&args.dem, &args.ortho) {
+        let map = args.dem_map.unwrap_or_default();
+        if map == MapSource::Ortho {
+            anyhow::ensure!(
+                args.map_sun_elevation.is_none() && args.map_sun_azimuth.is_none(),
+                "--map-sun-elevation/--map-sun-azimuth have no effect with --dem: the satellite \
+                 crops are the orthoimage, lit by its own sun; drop them, or add --dem-map render \
+                 to render the DEM under that sun"
+            );
+        }
+        let margin = args.dem_margin.unwrap_or(dataset::DEFAULT_DEM_MARGIN_M);
+        cfg.dem = Some(DemSite::new(dem, ortho, map, margin)?);
+    }
     cfg.sun_view_elevation = DegRange::parse(&args.sun_elevation).context("--sun-elevation")?;
     cfg.sun_view_azimuth = DegRange::parse(&args.sun_azimuth).context("--sun-azimuth")?;
     cfg.sun_map_elevation = match &args.map_sun_elevation {

@@ -3,7 +3,8 @@
 
 use crate::fsutil::{png_gray16, read_gray_png, write_atomic, write_png};
 use crate::render::{self, ply, RenderOptions, Sun};
-use crate::world::zones::{self, Split};
+use crate::world::dem::MapSource;
+use crate::world::zones::{self, Split, Zone};
 use crate::world::World;
 use anyhow::{bail, ensure, Context};
 use image::GrayImage;
@@ -118,6 +119,111 @@ pub struct GenerateConfig {
     /// Stereo pairs: also render each view's right camera (`docs/frames.md`), if set.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stereo: Option<render::stereo::StereoRender>,
+    /// A real DEM + orthoimage site instead of the procedural world (`--dem`/`--ortho`), if
+    /// set.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dem: Option<DemSite>,
+}
+
+/// Default [`DemSite::margin_m`], metres: a 300 m map around any location stays on the
+/// rasters (as the procedural zones' location areas, [`zones::MAP_HALF_EXTENT_M`]).
+pub const DEFAULT_DEM_MARGIN_M: f64 = zones::MAP_HALF_EXTENT_M;
+
+/// A dataset's DEM site (`orbfix generate --dem DEM.tif --ortho ORTHO.tif`): the world is
+/// [`World::from_geotiff`] (the same terrain `orbfix map --dem` and `orbfix eval --dem`
+/// draw), locations are drawn in the rasters' common region shrunk by `margin_m`.
+/// The files are identified by their length and CRC-32, so a changed file is another
+/// dataset (resuming it is refused).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DemSite {
+    /// The DEM GeoTIFF (absolute path).
+    pub dem: PathBuf,
+    /// Length of the DEM file, bytes.
+    pub dem_bytes: u64,
+    /// CRC-32 (IEEE) of the DEM file's bytes.
+    pub dem_crc32: u32,
+    /// The orthoimage GeoTIFF (absolute path).
+    pub ortho: PathBuf,
+    /// Length of the orthoimage file, bytes.
+    pub ortho_bytes: u64,
+    /// CRC-32 (IEEE) of the orthoimage file's bytes.
+    pub ortho_crc32: u32,
+    /// Where the satellite crops come from: the orthoimage resampled to the crop's grid
+    /// (`ortho`, the default) or the DEM rendered under the row's `sun_map` (`render`).
+    pub map: MapSource,
+    /// Distance of every location from the edges of the rasters' common region, metres.
+    pub margin_m: f64,
+}
+
+impl DemSite {
+    /// Identifies a DEM and orthoimage pair (reads both files; clear errors for missing,
+    /// unreadable or non-regular files). The rasters themselves are decoded by
+    /// [`DemSite::world`].
+    pub fn new(dem: &Path, ortho: &Path, map: MapSource, margin_m: f64) -> anyhow::Result<Self> {
+        let id = |p: &Path, what: &str| -> anyhow::Result<(PathBuf, u64, u32)> {
+            let meta = std::fs::metadata(p).with_context(|| {
+                format!("cannot open the {what} {} (check the path)", p.display())
+            })?;
+            ensure!(
+                meta.is_file(),
+                "the {what} {} is not a regular file: give the path of a .tif file",
+                p.display()
+            );
+            let bytes = std::fs::read(p)
+                .with_context(|| format!("cannot read the {what} {}", p.display()))?;
+            let abs = std::fs::canonicalize(p)
+                .with_context(|| format!("cannot resolve the path of {}", p.display()))?;
+            Ok((abs, bytes.len() as u64, orbfix::nn::weights::crc32(&bytes)))
+        };
+        let (dem, dem_bytes, dem_crc32) = id(dem, "DEM")?;
+        let (ortho, ortho_bytes, ortho_crc32) = id(ortho, "orthoimage")?;
+        Ok(Self {
+            dem,
+            dem_bytes,
+            dem_crc32,
+            ortho,
+            ortho_bytes,
+            ortho_crc32,
+            map,
+            margin_m,
+        })
+    }
+
+    /// The site's world: [`World::from_geotiff`] with the map source set, after checking
+    /// that the files are still the ones identified.
+    pub fn world(&self) -> anyhow::Result<World> {
+        for (p, len, crc, what) in [
+            (&self.dem, self.dem_bytes, self.dem_crc32, "DEM"),
+            (
+                &self.ortho,
+                self.ortho_bytes,
+                self.ortho_crc32,
+                "orthoimage",
+            ),
+        ] {
+            let bytes = std::fs::read(p)
+                .with_context(|| format!("cannot read the {what} {}", p.display()))?;
+            ensure!(
+                bytes.len() as u64 == len && orbfix::nn::weights::crc32(&bytes) == crc,
+                "the {what} {} changed since the dataset was configured (length or CRC-32 differ)",
+                p.display()
+            );
+        }
+        let mut w = World::from_geotiff(&self.dem, &self.ortho)?;
+        w.set_dem_map_source(self.map);
+        Ok(w)
+    }
+}
+
+/// What `dataset.json` records about a DEM site's frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DemFrame {
+    /// The rasters' CRS, as orbfix describes it.
+    pub crs: String,
+    /// CRS (easting, northing) = world (x_m, y_m) + this, metres.
+    pub crs_offset_m: [f64; 2],
+    /// The rasters' common region, world metres: west, south, east, north.
+    pub extent_m: [f64; 4],
 }
 
 impl GenerateConfig {
@@ -148,6 +254,7 @@ impl GenerateConfig {
             range: false,
             point_cloud: false,
             stereo: None,
+            dem: None,
         }
     }
 
@@ -197,15 +304,52 @@ impl GenerateConfig {
             self.sun_view_azimuth.max_deg < 360.0 || self.sun_view_azimuth.min_deg < 360.0,
             "--sun-azimuth must be below 360"
         );
+        if let Some(site) = &self.dem {
+            ensure!(
+                !self.flat,
+                "--flat and --dem exclude each other: a DEM site has its own relief"
+            );
+            let half_crop = 0.5 * self.satellite_px as f64 * self.satellite_m_per_px;
+            ensure!(
+                site.margin_m.is_finite() && site.margin_m >= half_crop,
+                "--dem-margin {} m must be at least half the satellite crop's side ({half_crop} m), \
+                 so that every crop lies on the rasters",
+                site.margin_m
+            );
+        }
         Ok(())
     }
 
-    /// The world the dataset is rendered from.
-    pub fn world(&self) -> World {
-        if self.flat {
-            World::flat(self.seed)
-        } else {
-            World::new(self.seed)
+    /// The world the dataset is rendered from: the procedural world of `seed`, or the DEM
+    /// site's ([`DemSite::world`]; errors say what is wrong with the files).
+    pub fn world(&self) -> anyhow::Result<World> {
+        Ok(match &self.dem {
+            Some(site) => site.world()?,
+            None if self.flat => World::flat(self.seed),
+            None => World::new(self.seed),
+        })
+    }
+
+    /// Where locations of `split` are drawn: the split's zone inset by 150 m on the
+    /// procedural world; on a DEM site the rasters' common region inset by
+    /// [`DemSite::margin_m`], the same for every split (a DEM site has no zones).
+    pub fn location_zone(&self, world: &World, split: Split) -> anyhow::Result<Zone> {
+        match world.dem() {
+            None => Ok(zones::zone(split).location_area()),
+            Some(d) => {
+                let margin = self
+                    .dem
+                    .as_ref()
+                    .map_or(DEFAULT_DEM_MARGIN_M, |s| s.margin_m);
+                let [w, s, e, n] = d.extent_m();
+                d.location_zone(margin).with_context(|| {
+                    format!(
+                        "the DEM and orthoimage overlap on x {w:.1}..{e:.1}, y {s:.1}..{n:.1} \
+                         (world metres), which is not wider than twice --dem-margin {margin} m: \
+                         use a larger site or a smaller --dem-margin"
+                    )
+                })
+            }
         }
     }
 
@@ -223,8 +367,9 @@ impl GenerateConfig {
     /// The manifest row of location `index`: a pure function of the config and `index`.
     pub fn location(&self, world: &World, index: usize) -> anyhow::Result<ManifestRow> {
         let split = self.split_of(index);
-        // Inside the zone's location area: the whole 300 m map region stays in the zone.
-        let z = zones::zone(split).location_area();
+        // Inside the zone's location area: the whole 300 m map region stays in the zone
+        // (on a DEM site: the margin keeps it on the rasters).
+        let z = self.location_zone(world, split)?;
         let mut rng = ChaCha8Rng::seed_from_u64(mix(self.seed, index as u64));
         let x = rng.random_range(z.x_min_m..z.x_max_m);
         let y = rng.random_range(z.y_min_m..z.y_max_m);
@@ -355,16 +500,17 @@ pub struct DatasetInfo {
     pub total: usize,
     /// Range image unit, metres per count.
     pub range_m_per_unit: f64,
+    /// The DEM site's CRS and frame (datasets made with `--dem`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dem_frame: Option<DemFrame>,
 }
 
 impl DatasetInfo {
-    /// The info of a config.
-    pub fn of(cfg: &GenerateConfig) -> Self {
-        Self {
-            generator_version: GENERATOR_VERSION.into(),
-            seed: cfg.seed,
-            config: cfg.clone(),
-            zones: Split::ALL
+    /// The info of a config rendered from `world` (`cfg.world()`). On a DEM site `zones`
+    /// holds one zone, `dem`: the region locations are drawn in.
+    pub fn of(cfg: &GenerateConfig, world: &World) -> anyhow::Result<Self> {
+        let zones = match world.dem() {
+            None => Split::ALL
                 .iter()
                 .map(|s| {
                     let z = zones::zone(*s);
@@ -374,9 +520,30 @@ impl DatasetInfo {
                     )
                 })
                 .collect(),
+            Some(_) => {
+                let z = cfg.location_zone(world, Split::Train)?;
+                vec![(
+                    z.name.to_string(),
+                    [z.x_min_m, z.y_min_m, z.x_max_m, z.y_max_m],
+                )]
+            }
+        };
+        Ok(Self {
+            generator_version: GENERATOR_VERSION.into(),
+            seed: cfg.seed,
+            config: cfg.clone(),
+            zones,
             total: cfg.total(),
             range_m_per_unit: RANGE_M_PER_UNIT,
-        }
+            dem_frame: world.dem().map(|d| {
+                let (ox, oy) = d.crs_offset_m();
+                DemFrame {
+                    crs: d.crs().describe(),
+                    crs_offset_m: [ox, oy],
+                    extent_m: d.extent_m(),
+                }
+            }),
+        })
     }
 }
 
@@ -492,17 +659,38 @@ pub fn render_location(
             None,
         ),
     };
-    let (sat, _) = render::render_satellite_crop_cached(
-        world,
-        row.x_m,
-        row.y_m,
-        cfg.satellite_px,
-        cfg.satellite_m_per_px,
-        row.sun_map,
-        &opts,
-        cache,
-    )
-    .with_context(|| format!("rendering satellite crop of location {}", row.id))?;
+    let sat = match world.dem() {
+        // The orbital map of a DEM site: the orthoimage resampled to the crop's grid, by the
+        // code `orbfix map --dem` and `orbfix eval --dem` use.
+        Some(d) if d.map_source() == MapSource::Ortho => {
+            let m = crate::eval::pipeline::map_region(
+                world,
+                row.x_m,
+                row.y_m,
+                cfg.satellite_px as usize,
+                cfg.satellite_m_per_px,
+                row.sun_map,
+                &opts,
+            )
+            .with_context(|| format!("satellite crop of location {}", row.id))?;
+            GrayImage::from_raw(m.width as u32, m.height as u32, m.image)
+                .context("satellite crop buffer has the wrong size")?
+        }
+        _ => {
+            render::render_satellite_crop_cached(
+                world,
+                row.x_m,
+                row.y_m,
+                cfg.satellite_px,
+                cfg.satellite_m_per_px,
+                row.sun_map,
+                &opts,
+                cache,
+            )
+            .with_context(|| format!("rendering satellite crop of location {}", row.id))?
+            .0
+        }
+    };
     if let Some(parent) = dir.join(&row.satellite).parent() {
         std::fs::create_dir_all(parent)
             .with_context(|| format!("cannot create {}", parent.display()))?;
@@ -550,13 +738,15 @@ pub fn generate(
     progress: bool,
 ) -> anyhow::Result<GenerateReport> {
     cfg.validate()?;
+    // The world first: a bad DEM or orthoimage is reported before anything is written.
+    let world = cfg.world()?;
+    let info = DatasetInfo::of(cfg, &world)?;
     std::fs::create_dir_all(dir).with_context(|| {
         format!(
             "cannot create output folder {} (check the path and permissions)",
             dir.display()
         )
     })?;
-    let info = DatasetInfo::of(cfg);
     let info_path = dir.join("dataset.json");
     let info_json = serde_json::to_string_pretty(&info)? + "\n";
     if info_path.exists() {
@@ -571,7 +761,7 @@ pub fn generate(
         let new_v: serde_json::Value = serde_json::from_str(&info_json)?;
         if old_v != new_v {
             bail!(
-                "{} holds a dataset made with other options or another generator version (seed, preset, size, suns or `generator_version` in dataset.json differ); use another --out or delete it",
+                "{} holds a dataset made with other options or another generator version (seed, preset, size, suns, DEM/orthoimage files or `generator_version` in dataset.json differ); use another --out or delete it",
                 dir.display()
             );
         }
@@ -579,7 +769,6 @@ pub fn generate(
         write_atomic(&info_path, info_json.as_bytes())
             .with_context(|| format!("cannot write into {} (is it writable?)", dir.display()))?;
     }
-    let world = cfg.world();
     let shard = shard.unwrap_or(Shard { index: 0, count: 1 });
     let mine: Vec<usize> = (0..cfg.total()).filter(|i| shard.owns(*i)).collect();
     let rows: Vec<ManifestRow> = mine

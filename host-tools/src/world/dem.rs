@@ -35,7 +35,17 @@ const LOCAL_LIMIT_M: f64 = 100_000.0;
 const ORTHO_GAMMA: f64 = 2.2;
 
 /// Where the orbital map of a DEM world comes from (see the module docs).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum MapSource {
     /// The orthoimage's gray levels resampled to the map grid (no sun, no re-rendering).
