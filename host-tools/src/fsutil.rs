@@ -123,9 +123,9 @@ pub fn read_gray_png(path: &Path, size: Option<(u32, u32)>) -> anyhow::Result<Gr
     )?;
     if img.color() != image::ColorType::L8 {
         bail!(
-            "{} is {:?}, expected 8-bit gray",
+            "{} is {}, expected 8-bit gray: convert it (e.g. `convert IN -colorspace Gray -depth 8 OUT.png`)",
             path.display(),
-            img.color()
+            describe_color(img.color())
         );
     }
     let img = img.to_luma8();
@@ -142,6 +142,20 @@ pub fn read_gray_png(path: &Path, size: Option<(u32, u32)>) -> anyhow::Result<Gr
         }
     }
     Ok(img)
+}
+
+/// The colour type of an image in words, for messages.
+fn describe_color(c: image::ColorType) -> String {
+    use image::ColorType as C;
+    let kind = match c {
+        C::L8 | C::L16 => "gray",
+        C::La8 | C::La16 => "gray with alpha",
+        C::Rgb8 | C::Rgb16 | C::Rgb32F => "colour (RGB)",
+        C::Rgba8 | C::Rgba16 | C::Rgba32F => "colour with alpha (RGBA)",
+        _ => "of an unusual colour type",
+    };
+    let bits = c.bits_per_pixel() / u16::from(c.channel_count().max(1));
+    format!("{bits}-bit {kind}")
 }
 
 #[cfg(test)]
@@ -184,5 +198,23 @@ mod tests {
         }
         // No temporary file is left behind by a refusal.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_colour_png_is_named_in_words() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("rgb.png");
+        image::RgbImage::from_pixel(4, 4, image::Rgb([16, 32, 48]))
+            .save(&p)
+            .unwrap();
+        let e = format!("{:#}", read_gray_png(&p, None).unwrap_err());
+        assert!(e.contains("8-bit colour (RGB), expected 8-bit gray"), "{e}");
+        assert!(!e.contains("Rgb8"), "{e}");
+        let g = dir.path().join("g.png");
+        write_png(&g, &GrayImage::from_pixel(4, 4, image::Luma([7]))).unwrap();
+        assert_eq!(
+            read_gray_png(&g, Some((4, 4))).unwrap().get_pixel(0, 0).0,
+            [7]
+        );
     }
 }

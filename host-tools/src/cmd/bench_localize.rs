@@ -36,6 +36,12 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let names = parse_matchers(&a.matcher)?;
+    // Every matcher is set up before anything is printed: a bad name or option is an error
+    // on its own, not after half a table.
+    let specs = names
+        .iter()
+        .map(|n| matcher_by_name(n))
+        .collect::<anyhow::Result<Vec<_>>>()?;
     anyhow::ensure!(a.reps >= 1, "--reps must be at least 1");
     if cfg!(debug_assertions) {
         eprintln!("warning: debug build; run with --release for meaningful times");
@@ -83,11 +89,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "{:<9} {:<16} {:>9} {:>12} {:>14} {:>10} {:>11} {:>12}",
         "matcher", "stage", "windows", "MACs", "downsample px", "time ms", "GMAC/s", "MACs/budget"
     );
-    for name in names {
-        let spec = matcher_by_name(&name)?;
+    for (name, spec) in names.iter().zip(&specs) {
         let mut best: Option<orbfix_host::eval::Localization> = None;
         for _ in 0..a.reps {
-            let loc = localize_top_down(&spec, &top, &map, (q.prior_x_m, q.prior_y_m), &cfg, 50)?;
+            let loc = localize_top_down(spec, &top, &map, (q.prior_x_m, q.prior_y_m), &cfg, 50)?;
             if best
                 .as_ref()
                 .is_none_or(|b| loc.dense_s + loc.windows_s < b.dense_s + b.windows_s)
