@@ -14,26 +14,30 @@ fn orbfix(dir: &Path, args: &[&str]) -> Output {
         .expect("the orbfix binary runs")
 }
 
+/// `orbfix map` of a `size_m` region with its product, as `NAME.png` + `NAME.ofm` in `dir`.
+fn map_with_product(dir: &Path, size_m: &str, name: &str) -> Output {
+    let (png, ofm) = (format!("{name}.png"), format!("{name}.ofm"));
+    let args = [
+        "map",
+        "--x",
+        "3000",
+        "--y",
+        "2000",
+        "--size-m",
+        size_m,
+        "--out",
+        &png,
+        "--product",
+        &ofm,
+    ];
+    orbfix(dir, &args)
+}
+
 #[test]
 fn the_written_product_validates_and_holds_the_png_pixels() {
     let dir = tempfile::tempdir().unwrap();
     // 60 m at 0.25 m/px: 240 x 240 px, a 3 x 3 grid of 200 px windows every 16 px.
-    let o = orbfix(
-        dir.path(),
-        &[
-            "map",
-            "--x",
-            "3000",
-            "--y",
-            "2000",
-            "--size-m",
-            "60",
-            "--out",
-            "m.png",
-            "--product",
-            "m.ofm",
-        ],
-    );
+    let o = map_with_product(dir.path(), "60", "m");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let bytes = std::fs::read(dir.path().join("m.ofm")).unwrap();
     let product = MapProduct::parse(&bytes, CrcCheck::Verify).expect("the product validates");
@@ -64,22 +68,7 @@ fn the_written_product_validates_and_holds_the_png_pixels() {
 #[test]
 fn a_map_narrower_than_the_window_is_refused_before_rendering() {
     let dir = tempfile::tempdir().unwrap();
-    let o = orbfix(
-        dir.path(),
-        &[
-            "map",
-            "--x",
-            "3000",
-            "--y",
-            "2000",
-            "--size-m",
-            "30",
-            "--out",
-            "s.png",
-            "--product",
-            "s.ofm",
-        ],
-    );
+    let o = map_with_product(dir.path(), "30", "s");
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("raise --size-m"), "{err}");

@@ -157,9 +157,9 @@ impl FixRunner {
             FixDepth::Images(d) => Some(d),
             _ => None,
         };
-        let meta = *MapProduct::parse(product, CrcCheck::Skip)
-            .map_err(|e| anyhow::anyhow!("{e}"))?
-            .meta();
+        let parsed =
+            MapProduct::parse(product, CrcCheck::Skip).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let (meta, l) = (*parsed.meta(), parsed.layout().to_owned());
         let sizes = fix::fix_buffer_sizes(&self.cfg, &meta).map_err(|e| anyhow::anyhow!("{e}"))?;
         let (w, h) = (params.width_px as usize, params.height_px as usize);
         let mut dviews: [Option<DepthView<'_>>; 4] = [None; 4];
@@ -188,10 +188,6 @@ impl FixRunner {
         let t0 = Instant::now();
         let result = f(&inputs, &mut scratch).map_err(|e| anyhow::anyhow!("{e}"))?;
         let seconds = t0.elapsed().as_secs_f64();
-        let l = MapProduct::parse(product, CrcCheck::Skip)
-            .map_err(|e| anyhow::anyhow!("{e}"))?
-            .layout()
-            .to_owned();
         let report = FixReport::no_data(pose.x_m, pose.y_m, empty_summary());
         Ok((
             result,
