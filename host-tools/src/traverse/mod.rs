@@ -5,20 +5,23 @@
 //! ([`orbfix::fix::run`], or its heading search [`orbfix::fix::run_heading_search`]) around
 //! the fused prior, folded into the core's filter ([`orbfix::fusion::Fusion`]). Nothing here
 //! localizes: the host simulates the drive, renders and reports.
+//!
+//! Files: `plan` (the path and the sensors' readings), `summary` (the summary and table),
+//! `figures`; this file holds the options, the per-stop record and the run loop.
 
 pub mod figures;
+mod plan;
+mod summary;
 
-use crate::eval::pipeline::{
-    make_queries, map_region, observe_raw, Condition, PipelineOptions, Reprojection,
-};
+pub use plan::{plan, Plan, PlannedStop};
+use plan::{BIAS0_PER_DRIFT, BIAS_WALK_PER_DRIFT, SCALE_PER_DRIFT, WALK_PER_DRIFT};
+pub use summary::{markdown_table, summarize, Summary};
+
+use crate::eval::pipeline::{map_region, observe_raw, Condition, PipelineOptions, Reprojection};
 use crate::fix::{build_map_product, FixRunner, MapProductOptions};
-use crate::render::Sun;
-use crate::world::{zones, World};
+use crate::world::World;
 use orbfix::fix::{FixConfig, FixReport, FixStatus, HeadingSearch};
 use orbfix::fusion::{Fusion, FusionConfig, OdometryLeg};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -136,130 +139,6 @@ impl TraverseOptions {
         )
         .map_err(|e| anyhow::anyhow!("heading search: {e}"))
     }
-}
-
-/// Odometry model, per unit of `odometry_drift`: scale error (standard deviation, a
-/// constant of the drive).
-const SCALE_PER_DRIFT: f32 = 0.5;
-/// Initial heading bias, radians per unit of drift (0.02: 0.8 deg).
-const BIAS0_PER_DRIFT: f32 = 0.7;
-/// Heading bias random walk, radians per square-root metre per unit of drift (0.02: the
-/// heading wanders by 1.8 deg over 1 km, which alone drifts by about 2 % of the distance).
-const BIAS_WALK_PER_DRIFT: f32 = 0.05;
-/// Cross- and along-track position random walk, metres per square-root metre per unit of
-/// drift.
-const WALK_PER_DRIFT: f32 = 0.5;
-
-/// One stop of the planned drive with what the rover's sensors said.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
-pub struct PlannedStop {
-    /// Stop number.
-    pub stop: usize,
-    /// True position `(east, north)`, metres.
-    pub truth_m: (f64, f64),
-    /// True heading at the stop (that of the leg driven to it), degrees.
-    pub heading_deg: f64,
-    /// Distance driven from the start, metres.
-    pub distance_m: f64,
-    /// The leg to this stop as the odometry measured it (none for the first stop).
-    pub odometry_leg: Option<(f64, f64)>,
-    /// The heading estimate given to the fix, degrees.
-    pub heading_estimate_deg: f64,
-    /// The comparison's heading estimate (its own sigma), degrees.
-    pub compare_heading_deg: Option<f64>,
-    /// Suns of the rover views and of the map.
-    pub sun_rover: Sun,
-    /// Sun of the map.
-    pub sun_map: Sun,
-}
-
-/// The whole planned drive: the truth, the odometry's legs and the start prior.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Plan {
-    /// Start prior (truth plus an error of `start_sigma_m`), metres.
-    pub start_prior_m: (f64, f64),
-    /// Stops in order.
-    pub stops: Vec<PlannedStop>,
-}
-
-/// Plans the drive of `o` (deterministic in the seed): legs of `leg_min_m..leg_max_m`
-/// with turns of up to 45 deg, turning back towards the zone's centre when a leg would leave
-/// the inner test zone (100 m margin); the odometry of each leg (scale error, heading bias
-/// with a random walk, position random walk); the heading estimates.
-pub fn plan(o: &TraverseOptions) -> anyhow::Result<Plan> {
-    o.validate()?;
-    let mut rng = ChaCha8Rng::seed_from_u64(o.seed ^ 0x7472_6176_6572_7365);
-    let z = zones::zone(zones::Split::Test);
-    let margin = 100.0;
-    let (x0, x1) = (z.x_min_m + margin, z.x_max_m - margin);
-    let (y0, y1) = (z.y_min_m + margin, z.y_max_m - margin);
-    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    let normal = |s: f64| Normal::new(0.0, s.max(0.0)).map_err(|e| anyhow::anyhow!("{e}"));
-    let unit = normal(1.0)?;
-    let f = o.odometry_drift;
-    let scale = 1.0 + SCALE_PER_DRIFT as f64 * f * unit.sample(&mut rng);
-    let mut bias = BIAS0_PER_DRIFT as f64 * f * unit.sample(&mut rng);
-    let suns = make_queries(o.seed ^ 0x7375_6e73, o.stops, o.condition);
-    let mut pos = (
-        rng.random_range(x0 + 100.0..x1 - 100.0),
-        rng.random_range(y0 + 100.0..y1 - 100.0),
-    );
-    let mut heading: f64 = rng.random_range(0.0..360.0);
-    let start_prior_m = (
-        pos.0 + o.start_sigma_m * unit.sample(&mut rng),
-        pos.1 + o.start_sigma_m * unit.sample(&mut rng),
-    );
-    let mut stops = Vec::with_capacity(o.stops);
-    let mut distance = 0.0;
-    for i in 0..o.stops {
-        let mut leg = None;
-        if i > 0 {
-            let d = rng.random_range(o.leg_min_m..=o.leg_max_m);
-            let mut h = heading + rng.random_range(-45.0..45.0);
-            let next = |h: f64| {
-                let r = h.to_radians();
-                (pos.0 + d * r.sin(), pos.1 + d * r.cos())
-            };
-            let inside = |p: (f64, f64)| p.0 >= x0 && p.0 <= x1 && p.1 >= y0 && p.1 <= y1;
-            if !inside(next(h)) {
-                h = (cx - pos.0).atan2(cy - pos.1).to_degrees() + rng.random_range(-30.0..30.0);
-            }
-            let h = h.rem_euclid(360.0);
-            // Odometry: true heading = odometry heading + bias.
-            let walk = WALK_PER_DRIFT as f64 * f * d.sqrt();
-            let along = d * scale + walk * unit.sample(&mut rng);
-            let cross = walk * unit.sample(&mut rng);
-            let d_odo = (along * along + cross * cross).sqrt();
-            let h_odo = h - bias.to_degrees() + cross.atan2(along).to_degrees();
-            bias += BIAS_WALK_PER_DRIFT as f64 * f * d.sqrt() * unit.sample(&mut rng);
-            pos = next(h);
-            heading = h;
-            distance += d;
-            leg = Some((d_odo, h_odo.rem_euclid(360.0)));
-        }
-        let est = heading + o.heading_sigma_deg * unit.sample(&mut rng);
-        // Drawn whether or not it is used: the comparison does not change the drive.
-        let cmp_draw: f64 = unit.sample(&mut rng);
-        let cmp = o.compare_heading_sigma_deg.map(|s| heading + s * cmp_draw);
-        let q = suns
-            .get(i)
-            .ok_or_else(|| anyhow::anyhow!("sun of stop {i}"))?;
-        stops.push(PlannedStop {
-            stop: i,
-            truth_m: pos,
-            heading_deg: heading,
-            distance_m: distance,
-            odometry_leg: leg,
-            heading_estimate_deg: est.rem_euclid(360.0),
-            compare_heading_deg: cmp.map(|c| c.rem_euclid(360.0)),
-            sun_rover: q.sun_rover,
-            sun_map: q.sun_map,
-        });
-    }
-    Ok(Plan {
-        start_prior_m,
-        stops,
-    })
 }
 
 /// The comparison of one stop: the fix's error with the known heading, with the heading
@@ -647,147 +526,4 @@ impl Traverse {
             .last()
             .ok_or_else(|| anyhow::anyhow!("no record"))
     }
-}
-
-/// Share of `v` at most `t` (NaN when empty).
-fn share(v: &[f64], t: f64) -> f64 {
-    v.iter().filter(|&&e| e <= t).count() as f64 / v.len() as f64
-}
-
-/// The drive's summary.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Summary {
-    /// Stops.
-    pub stops: usize,
-    /// Distance driven, metres.
-    pub distance_m: f64,
-    /// Odometry alone: error at the last stop, metres.
-    pub odometry_final_error_m: f64,
-    /// Odometry alone: largest error, metres.
-    pub odometry_max_error_m: f64,
-    /// Odometry alone: drift since the start at the last stop, share of the distance.
-    pub odometry_drift_share: f64,
-    /// Fused: largest error after the first five stops, metres.
-    pub fused_max_error_after_5_m: f64,
-    /// Fused: share of stops after the first five within 1 m.
-    pub fused_within_1m_after_5: f64,
-    /// Fused: share of stops after the first five within 2 m.
-    pub fused_within_2m_after_5: f64,
-    /// Fused: mean error after the first five stops, metres.
-    pub fused_mean_error_after_5_m: f64,
-    /// Fixes with a position (status other than no-data).
-    pub fixes: usize,
-    /// Fixes within 1 m of the truth, share of all stops (no data counts as a miss).
-    pub fix_within_1m: f64,
-    /// Fixes the filter accepted.
-    pub accepted: usize,
-    /// Largest error of an accepted fix, metres.
-    pub accepted_max_error_m: f64,
-    /// Accepted fixes more than 5 m off.
-    pub accepted_over_5m: usize,
-    /// Every refused fix: stop, fix error (m) and why.
-    pub rejected: Vec<(usize, Option<f64>, String)>,
-    /// Heading comparison: share of stops with a fix within 1 m with the known heading,
-    /// the noisy one without search, and with the search (if compared).
-    pub compare_within_1m: Option<(f64, f64, f64)>,
-    /// Mean wall time of the fix, milliseconds (host).
-    pub fix_ms_mean: f64,
-    /// Mean wall time of the comparison's known-heading fix and of its heading search,
-    /// milliseconds (host).
-    pub compare_ms_mean: Option<(f64, f64)>,
-}
-
-/// Summarizes `records`.
-pub fn summarize(records: &[StopRecord]) -> Summary {
-    let after: Vec<&StopRecord> = records.iter().filter(|r| r.stop >= 5).collect();
-    let fe: Vec<f64> = after.iter().map(|r| r.fused_error_m).collect();
-    let last = records.last();
-    let acc: Vec<f64> = records
-        .iter()
-        .filter(|r| r.accepted)
-        .filter_map(|r| r.fix_error_m)
-        .collect();
-    let err_or_inf = |e: Option<f64>| e.unwrap_or(f64::INFINITY);
-    let fix_all: Vec<f64> = records.iter().map(|r| err_or_inf(r.fix_error_m)).collect();
-    let cmp: Vec<&HeadingCompare> = records.iter().filter_map(|r| r.compare.as_ref()).collect();
-    let compare_within_1m = (!cmp.is_empty()).then(|| {
-        let k: Vec<f64> = cmp.iter().map(|c| err_or_inf(c.known_error_m)).collect();
-        let n: Vec<f64> = cmp.iter().map(|c| err_or_inf(c.noisy_error_m)).collect();
-        let s: Vec<f64> = cmp.iter().map(|c| err_or_inf(c.search_error_m)).collect();
-        (share(&k, 1.0), share(&n, 1.0), share(&s, 1.0))
-    });
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    Summary {
-        stops: records.len(),
-        distance_m: last.map_or(0.0, |r| r.distance_m),
-        odometry_final_error_m: last.map_or(0.0, |r| r.odometry_error_m),
-        odometry_max_error_m: records
-            .iter()
-            .map(|r| r.odometry_error_m)
-            .fold(0.0, f64::max),
-        odometry_drift_share: last.map_or(0.0, |r| r.odometry_drift_m / r.distance_m.max(1.0)),
-        fused_max_error_after_5_m: fe.iter().copied().fold(0.0, f64::max),
-        fused_within_1m_after_5: share(&fe, 1.0),
-        fused_within_2m_after_5: share(&fe, 2.0),
-        fused_mean_error_after_5_m: mean(&fe),
-        fixes: records.iter().filter(|r| r.fix_m.is_some()).count(),
-        fix_within_1m: share(&fix_all, 1.0),
-        accepted: records.iter().filter(|r| r.accepted).count(),
-        accepted_max_error_m: acc.iter().copied().fold(0.0, f64::max),
-        accepted_over_5m: acc.iter().filter(|&&e| e > 5.0).count(),
-        rejected: records
-            .iter()
-            .filter(|r| !r.accepted)
-            .map(|r| {
-                (
-                    r.stop,
-                    r.fix_error_m,
-                    r.reject_reason.clone().unwrap_or_default(),
-                )
-            })
-            .collect(),
-        compare_within_1m,
-        fix_ms_mean: mean(&records.iter().map(|r| r.fix_ms).collect::<Vec<_>>()),
-        compare_ms_mean: (!cmp.is_empty()).then(|| {
-            (
-                mean(&cmp.iter().map(|c| c.known_ms).collect::<Vec<_>>()),
-                mean(&cmp.iter().map(|c| c.search_ms).collect::<Vec<_>>()),
-            )
-        }),
-    }
-}
-
-/// The per-stop table in Markdown.
-pub fn markdown_table(records: &[StopRecord]) -> String {
-    let mut s = String::from(
-        "| stop | driven m | odometry err m | prior err m | radius m | fix err m | bound m | status | accepted | fused err m | fused sigma m |\n|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---:|\n",
-    );
-    let f = |v: Option<f64>| v.map_or("-".to_string(), |e| format!("{e:.2}"));
-    for r in records {
-        s.push_str(&format!(
-            "| {} | {:.0} | {:.2} | {:.2} | {:.0} | {} | {} | {} | {} | {:.2} | {:.2} |\n",
-            r.stop,
-            r.distance_m,
-            r.odometry_error_m,
-            r.prior_error_m,
-            r.search_radius_m,
-            f(r.fix_error_m),
-            f(r.fix_bound_m),
-            r.fix_status,
-            if r.accepted {
-                "yes".to_string()
-            } else {
-                format!(
-                    "no ({})",
-                    r.reject_reason
-                        .as_deref()
-                        .and_then(|x| x.split(':').next())
-                        .unwrap_or("?")
-                )
-            },
-            r.fused_error_m,
-            r.fused_sigma_m
-        ));
-    }
-    s
 }
