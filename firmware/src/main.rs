@@ -36,8 +36,7 @@ use orbfix::fix::{
 };
 use orbfix::fusion::{Fusion, OdometryLeg};
 use orbfix::image::ImageView;
-use orbfix::nn::input::INPUT_LEN;
-use orbfix::nn::model::{Arena, EMBED_LEN};
+use orbfix::nn::model::EMBED_LEN;
 use orbfix::reproject::{DepthView, GridSpec};
 use report::Line;
 
@@ -78,8 +77,6 @@ static mut MASK: [u8; vectors::MASK] = [0; vectors::MASK];
 static mut WORK: [u32; vectors::WORK_WORDS] = [0; vectors::WORK_WORDS];
 static mut RESPONSE: [i32; vectors::RESPONSE] = [0; vectors::RESPONSE];
 static mut REFINE_FLOATS: [f32; vectors::REFINE_FLOATS] = [0.0; vectors::REFINE_FLOATS];
-static mut NN_ARENA: Arena = Arena::new();
-static mut NN_INPUT: [i8; INPUT_LEN] = [0; INPUT_LEN];
 static mut NN_EMBEDDING: [i8; EMBED_LEN] = [0; EMBED_LEN];
 
 fn depths() -> Option<&'static [u16]> {
@@ -156,8 +153,6 @@ fn main() -> ! {
             work: &mut *addr_of_mut!(WORK),
             response: &mut *addr_of_mut!(RESPONSE),
             refine_floats: &mut *addr_of_mut!(REFINE_FLOATS),
-            nn_arena: &mut *addr_of_mut!(NN_ARENA),
-            nn_input: &mut *addr_of_mut!(NN_INPUT),
             nn_embedding: &mut *addr_of_mut!(NN_EMBEDDING),
         }
     };

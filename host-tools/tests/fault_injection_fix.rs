@@ -23,7 +23,7 @@
 
 use orbfix::fix::{self, FixConfig, FixError, FixReport, FixScratch, FixStatus, Stage, StageClock};
 use orbfix::map_product::{CrcCheck, MapProduct};
-use orbfix::nn::model::{Arena, ACTIVATION_BYTES, SCRATCH_LEN, SHIPPED_WEIGHTS};
+use orbfix::nn::model::SHIPPED_WEIGHTS;
 use orbfix_host::eval::pipeline::Reprojection;
 use orbfix_host::eval::pipeline::{map_region, observe_raw, Observation, PipelineOptions};
 use orbfix_host::fix::OwnedScratch;
@@ -77,14 +77,13 @@ fn bufs_for(s: &Stop, cfg: &FixConfig) -> OwnedScratch {
     OwnedScratch::for_product(cfg, &s.product).unwrap()
 }
 
-const BUFFERS: [&str; 8] = [
+/// The fix's buffers (the CNN's arena and input live in `work`).
+const BUFFERS: [&str; 6] = [
     "top",
     "mask",
     "work",
     "response",
     "refine_floats",
-    "nn_arena",
-    "nn_input",
     "nn_embedding",
 ];
 
@@ -102,22 +101,6 @@ fn bytes<'s>(s: &'s mut FixScratch<'_>, b: usize) -> &'s mut [u8] {
         2 => view(s.work),
         3 => view(s.response),
         4 => view(s.refine_floats),
-        5 => {
-            // The arena is three integer arrays with no padding (checked).
-            assert_eq!(
-                std::mem::size_of::<Arena>(),
-                2 * ACTIVATION_BYTES + 2 * SCRATCH_LEN
-            );
-            // Safety: `Arena` is `i8` and `i16` arrays without padding, valid for every bit
-            // pattern; the view covers exactly the struct.
-            unsafe {
-                std::slice::from_raw_parts_mut(
-                    (s.nn_arena as *mut Arena).cast(),
-                    std::mem::size_of::<Arena>(),
-                )
-            }
-        }
-        6 => view(&mut s.nn_input[..]),
         _ => view(&mut s.nn_embedding[..]),
     }
 }

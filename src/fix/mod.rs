@@ -45,7 +45,9 @@ pub use config::{ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, 
 pub use digest::{fnv1a, fnv1a_start, output_digest};
 pub use heading::{run_heading_search, HeadingFix, HeadingSearch, MAX_HEADINGS};
 pub use report::{FixError, FixPath, FixReport, FixStatus, ReprojectionSummary, StageOps};
-pub use scratch::{fix_buffer_sizes, FixBufferSizes, FixScratch, RefineLayout, LUT_BAND_ROWS};
+pub use scratch::{
+    fix_buffer_sizes, FixBufferSizes, FixScratch, RefineLayout, LUT_BAND_ROWS, NN_WORK_WORDS,
+};
 pub use stage::{NoClock, Stage, StageClock};
 pub use stereo_depth::{stereo_work_words, StereoConfig};
 
@@ -191,8 +193,6 @@ fn run_once<C: StageClock>(
         work,
         response,
         refine_floats,
-        nn_arena,
-        nn_input,
         nn_embedding,
     } = scratch;
     let too_small = |buffer| FixError::ScratchTooSmall { buffer };
@@ -217,8 +217,6 @@ fn run_once<C: StageClock>(
                     work: &mut *work,
                     response: &mut *response,
                     refine_floats: &mut **refine_floats,
-                    nn_arena: &mut **nn_arena,
-                    nn_input: &mut **nn_input,
                     nn_embedding: &mut **nn_embedding,
                 },
             )
@@ -265,17 +263,21 @@ fn run_once<C: StageClock>(
     }
 
     // 2. Embedding (the weights are parsed and CRC-checked inside, out of line).
+    // The arena and input live in the work area, free between the reprojection and the
+    // refinement.
     clock.begin(Stage::NnEmbed);
-    let embedded = embed_stage(
-        inputs.weights,
-        top,
-        mask,
-        n,
-        nn_input,
-        nn_arena,
-        nn_embedding,
-        cfg.self_check.redundant_embed,
-    );
+    let embedded = self::scratch::nn_views(work).and_then(|(nn_arena, nn_input)| {
+        embed_stage(
+            inputs.weights,
+            top,
+            mask,
+            n,
+            nn_input,
+            nn_arena,
+            nn_embedding,
+            cfg.self_check.redundant_embed,
+        )
+    });
     clock.end(Stage::NnEmbed);
     after!(Stage::NnEmbed);
     let (zp, self_check_ok) = match embedded {

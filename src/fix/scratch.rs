@@ -5,6 +5,35 @@ use crate::map_product::MapProductMeta;
 use crate::matcher::prep::highpass_buffer_len;
 use crate::nn::input::INPUT_LEN;
 use crate::nn::model::{Arena, EMBED_LEN};
+
+/// `u32` words of the work area the CNN stage uses: its [`Arena`], then its int8 input
+/// (the work area is free between the reprojection and the refinement).
+pub const NN_WORK_WORDS: usize = core::mem::size_of::<Arena>().div_ceil(4) + INPUT_LEN.div_ceil(4);
+
+// The arena is viewed inside `u32` words: its alignment must not exceed theirs, and it
+// must have no padding (see [`nn_views`]).
+const _: () = assert!(core::mem::align_of::<Arena>() <= core::mem::align_of::<u32>());
+const _: () = assert!(
+    core::mem::size_of::<Arena>()
+        == 2 * crate::nn::model::ACTIVATION_BYTES + 2 * crate::nn::model::SCRATCH_LEN
+);
+
+/// The CNN's arena and int8 input, viewed in the first [`NN_WORK_WORDS`] of `work`.
+pub(crate) fn nn_views(work: &mut [u32]) -> Result<(&mut Arena, &mut [i8; INPUT_LEN]), FixError> {
+    let too_small = FixError::ScratchTooSmall { buffer: "work" };
+    let arena_words = core::mem::size_of::<Arena>().div_ceil(4);
+    let (aw, rest) = work.split_at_mut_checked(arena_words).ok_or(too_small)?;
+    let iw = rest.get_mut(..INPUT_LEN.div_ceil(4)).ok_or(too_small)?;
+    // Safety: `Arena` is `repr(C)` over `i8` and `i16` arrays without padding (asserted
+    // above), so every bit pattern of its bytes is a valid value; its alignment (2) divides
+    // that of `u32`, and `aw` holds at least `size_of::<Arena>()` bytes, exclusively
+    // borrowed for the returned lifetime.
+    let arena = unsafe { &mut *aw.as_mut_ptr().cast::<Arena>() };
+    // Safety: `i8` is valid for every bit pattern and has alignment 1; `iw` holds at least
+    // `INPUT_LEN` bytes, exclusively borrowed for the returned lifetime.
+    let input = unsafe { &mut *iw.as_mut_ptr().cast::<[i8; INPUT_LEN]>() };
+    Ok((arena, input))
+}
 use crate::reproject::{range_scratch_len, Cell, Tap};
 
 /// Grid rows per band of the flat-ground reprojection table: one band's cells (8 bytes
@@ -20,7 +49,8 @@ pub struct FixBufferSizes {
     /// Its validity mask, bytes (`n * n`).
     pub mask: usize,
     /// Shared work area, `u32` words: the range accumulator or one band of the table during
-    /// reprojection, then the refinement's images ([`RefineLayout`]).
+    /// reprojection, then the CNN's arena and input ([`NN_WORK_WORDS`]), then the
+    /// refinement's images ([`RefineLayout`]).
     pub work_words: usize,
     /// Coarse response, one Q15 cosine per map window.
     pub response: usize,
@@ -29,8 +59,8 @@ pub struct FixBufferSizes {
 }
 
 impl FixBufferSizes {
-    /// Bytes of all of them together (the CNN's arena, input and embedding not included:
-    /// see [`FixScratch`]).
+    /// Bytes of all of them together (the CNN's embedding, [`EMBED_LEN`] bytes, not
+    /// included: see [`FixScratch`]).
     pub fn bytes(&self) -> usize {
         self.top + self.mask + 4 * self.work_words + 4 * self.response + 4 * self.refine_floats
     }
@@ -133,7 +163,8 @@ pub fn fix_buffer_sizes(
         mask: n * n,
         work_words: (range_scratch_len(n) + super::stereo_depth::stereo_work_words(&cfg.stereo))
             .max(lut_words)
-            .max(refine.words(n)),
+            .max(refine.words(n))
+            .max(NN_WORK_WORDS),
         response: cols * rows,
         refine_floats: floats,
     })
@@ -152,10 +183,6 @@ pub struct FixScratch<'a> {
     pub response: &'a mut [i32],
     /// Refinement responses.
     pub refine_floats: &'a mut [f32],
-    /// The CNN's activations and convolution scratch.
-    pub nn_arena: &'a mut Arena,
-    /// The CNN's int8 input.
-    pub nn_input: &'a mut [i8; INPUT_LEN],
     /// The top-down image's embedding.
     pub nn_embedding: &'a mut [i8; EMBED_LEN],
 }

@@ -120,7 +120,10 @@ pub const fn weight_count() -> usize {
 
 /// Working memory of one embedding, sized at compile time for [`SPEC`]:
 /// two ping-pong activation buffers and the convolution scratch
-/// (`2 * ACTIVATION_BYTES + 2 * SCRATCH_LEN` bytes). Place it in a `static` or on the stack.
+/// (`2 * ACTIVATION_BYTES + 2 * SCRATCH_LEN` bytes). Place it in a `static`, or view a
+/// caller's word buffer as one (the fix keeps it in its work area, `orbfix::fix`).
+/// `repr(C)` of `i8` and `i16` arrays: no padding, valid for every bit pattern.
+#[repr(C)]
 pub struct Arena {
     a: [i8; ACTIVATION_BYTES],
     b: [i8; ACTIVATION_BYTES],

@@ -4,8 +4,7 @@
 
 use orbfix::fix::{self, FixBufferSizes, FixConfig, FixScratch};
 use orbfix::map_product::{CrcCheck, MapProduct};
-use orbfix::nn::input::INPUT_LEN;
-use orbfix::nn::model::{Arena, EMBED_LEN};
+use orbfix::nn::model::EMBED_LEN;
 
 /// Every buffer of one fix, exactly as long as [`fix_buffer_sizes`](fix::fix_buffer_sizes)
 /// says. Borrow it as the core's [`FixScratch`] with [`OwnedScratch::scratch`].
@@ -20,10 +19,6 @@ pub struct OwnedScratch {
     pub response: Vec<i32>,
     /// Refinement responses.
     pub floats: Vec<f32>,
-    /// The CNN's activations and convolution scratch.
-    pub arena: Box<Arena>,
-    /// The CNN's int8 input.
-    pub input: Box<[i8; INPUT_LEN]>,
     /// The top-down image's embedding.
     pub emb: Box<[i8; EMBED_LEN]>,
 }
@@ -37,8 +32,6 @@ impl OwnedScratch {
             work: vec![0; z.work_words],
             response: vec![0; z.response],
             floats: vec![0.0; z.refine_floats],
-            arena: Box::new(Arena::new()),
-            input: Box::new([0; INPUT_LEN]),
             emb: Box::new([0; EMBED_LEN]),
         }
     }
@@ -61,8 +54,6 @@ impl OwnedScratch {
             work: &mut self.work,
             response: &mut self.response,
             refine_floats: &mut self.floats,
-            nn_arena: &mut self.arena,
-            nn_input: &mut self.input,
             nn_embedding: &mut self.emb,
         }
     }
