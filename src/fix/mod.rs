@@ -232,7 +232,8 @@ fn run_once<C: StageClock>(
                 inputs,
                 &depths,
                 cfg,
-                work.get_mut(..n * n).ok_or(too_small("work"))?,
+                work.get_mut(..crate::reproject::range_scratch_len(n))
+                    .ok_or(too_small("work"))?,
                 top,
                 mask,
             )?;

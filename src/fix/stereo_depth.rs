@@ -18,7 +18,9 @@
 use super::{FixConfig, FixError, FixInputs, ReprojectionSummary, Stage, StageClock, StageOps};
 use crate::camera::View;
 use crate::image::ImageView;
-use crate::reproject::{classify_frame, DepthBand, FrameStatus, RangeAccumulator};
+use crate::reproject::{
+    classify_frame, range_scratch_len, DepthBand, FrameStatus, RangeAccumulator,
+};
 use crate::stereo::{stereo_buffer_bound, StereoError, StereoParams, StereoRig};
 
 /// Settings of the fix's own stereo stage.
@@ -115,7 +117,7 @@ fn per_view(e: &StereoError) -> bool {
 }
 
 /// Stage 1 with on-board stereo: depth band by band (stage `stereo`), each band placed at
-/// once (stage `reproject`), then the top-down image (`work`: the accumulator's `n * n`
+/// once (stage `reproject`), then the top-down image (`work`: the accumulator's [`range_scratch_len`]
 /// words, then [`stereo_work_words`]).
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
@@ -149,7 +151,7 @@ pub(super) fn reproject_stereo<C: StageClock>(
     }
     let n = cfg.grid.n;
     let parts = Parts::new(sc);
-    let (acc_w, rest) = work.split_at_mut((n * n).min(work.len()));
+    let (acc_w, rest) = work.split_at_mut(range_scratch_len(n).min(work.len()));
     let (bytes_w, rest) = rest.split_at_mut(parts.bytes.min(rest.len()));
     let (words_w, rest) = rest.split_at_mut(parts.words.min(rest.len()));
     let (band_w, rest) = rest.split_at_mut(parts.band.min(rest.len()));
@@ -169,7 +171,14 @@ pub(super) fn reproject_stereo<C: StageClock>(
     }
 
     clock.begin(Stage::Reproject);
-    let acc = RangeAccumulator::new(&inputs.params, &inputs.pose, &cfg.grid, &cfg.range, acc_w);
+    let acc = RangeAccumulator::new(
+        &inputs.params,
+        &inputs.pose,
+        &cfg.grid,
+        &cfg.range,
+        acc_w,
+        mask,
+    );
     clock.end(Stage::Reproject);
     let mut acc = acc?;
     let k = usize::from(sc.matcher.downsample);
@@ -226,7 +235,7 @@ pub(super) fn reproject_stereo<C: StageClock>(
         }
     }
     clock.begin(Stage::Reproject);
-    let r = acc.finish(top, mask);
+    let r = acc.finish(top);
     clock.end(Stage::Reproject);
     let r = r?;
     ops.reproject_px = r.pixels_read;

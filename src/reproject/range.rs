@@ -14,16 +14,17 @@
 //! metres (up) per depth unit and rounded to Q32 in `i32`. Per pixel (integer): three
 //! `i32` adds (the ray steps by `b`), three 32 x 32 -> 64 multiply-adds (`z * ray`: east,
 //! south, up; `SMLAL` on Cortex-M), two shifts (cell = floor, `>> 32`),
-//! compares, and one add into a packed per-cell accumulator (`u32`: sample count in bits
-//! 24..=31, saturating at 255, gray sum in bits 0..=23). Then per cell one division
+//! compares, and per cell a sample count (`u8`, saturating at 255, kept in the caller's
+//! mask until the end) and a gray sum (`u16` in the scratch: at most 255 samples of at most
+//! 255, 65,025). Then per cell one division
 //! (`out = sum / count`, rounded) and an optional hole-filling pass (a cell with no sample
 //! and at least [`RangeOptions::fill_min_neighbours`] of its 8 neighbours sampled gets
 //! their mean), so sampling gaps at range do not punch holes while the blind disc under
 //! the mast and unseen areas stay "no data".
 //!
-//! Memory: the caller's scratch of [`range_scratch_len`] `u32` (4 bytes per cell, 160 KB
-//! for the default 200 x 200 grid) plus the output and mask (`n * n` bytes each). No heap,
-//! no panics, no floats per pixel.
+//! Memory: the caller's scratch of [`range_scratch_len`] `u32` (2 bytes per cell, 80 KB
+//! for the default 200 x 200 grid) plus the output and mask (`n * n` bytes each; the mask
+//! holds the counts while pixels are placed). No heap, no panics, no floats per pixel.
 
 use super::{classify_frame, Buffer, FrameStatus, GridSpec, ReprojectError};
 use crate::camera::{Camera, CameraParams, RoverPose, View};
@@ -36,21 +37,20 @@ pub const DEFAULT_FILL_MIN: u8 = 5;
 
 /// Fractional bits of the fixed-point positions (grid cells, Q32 in `i64`).
 pub const POS_FRAC_BITS: u32 = 32;
-const ONE_SAMPLE: u32 = 1 << 24;
-const SUM_MASK: u32 = ONE_SAMPLE - 1;
-/// Accumulator value at which a cell's count (255) is saturated.
-const SATURATED: u32 = 255 << 24;
+/// Sample count at which a cell saturates (later samples are not added).
+const SATURATED: u8 = 255;
 /// Largest magnitude of a Q32 ray component (per depth unit) along a row: `2^30`, so that
 /// rays fit `i32` with margin for the per-column steps and `z * ray` is one 32 x 32 -> 64
 /// multiply-accumulate (`SMLAL` on Cortex-M).
 const RAY_LIMIT: f32 = 1_073_741_824.0;
 
-/// `u32` elements of the scratch for an `n x n` grid (`n * n`; 0 on overflow).
+/// `u32` elements of the scratch for an `n x n` grid (one `u16` gray sum per cell:
+/// `ceil(n * n / 2)`; 0 on overflow).
 pub const fn range_scratch_len(n: usize) -> usize {
-    super::table_len(n)
+    super::table_len(n).div_ceil(2)
 }
 
-/// Bytes of the scratch for an `n x n` grid (4 per cell).
+/// Bytes of the scratch for an `n x n` grid (2 per cell, rounded up to a word).
 pub const fn range_scratch_bytes(n: usize) -> usize {
     range_scratch_len(n) * core::mem::size_of::<u32>()
 }
@@ -356,15 +356,15 @@ fn place_row<const HEIGHT: bool, const RANGE: bool>(
     ray: [i32; 3],
     step: [i32; 3],
     lim: &Limits,
-    scratch: &mut [u32],
+    cells: &mut Cells<'_>,
 ) -> u32 {
     // Every pixel: a plain zip (a runtime `step_by` slows the common loop down).
     if stride <= 1 {
         let it = frow.iter().zip(drow);
-        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, scratch)
+        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, cells)
     } else {
         let it = frow.iter().zip(drow).step_by(stride);
-        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, scratch)
+        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, cells)
     }
 }
 
@@ -375,7 +375,7 @@ fn place_pixels<'p, const HEIGHT: bool, const RANGE: bool, I>(
     ray: [i32; 3],
     step: [i32; 3],
     lim: &Limits,
-    scratch: &mut [u32],
+    cells: &mut Cells<'_>,
 ) -> u32
 where
     I: Iterator<Item = (&'p u8, &'p u16)>,
@@ -383,6 +383,12 @@ where
     let [mut dx, mut dy, mut dz] = ray;
     let [bx, by, bz] = step;
     let (max_depth, n, c_q) = (lim.max_depth, lim.n, lim.c_q);
+    // Both views cut to one length, so one bound check per pixel covers both.
+    let len = cells.counts.len().min(cells.sums.len());
+    let (Some(counts), Some(sums)) = (cells.counts.get_mut(..len), cells.sums.get_mut(..len))
+    else {
+        return 0;
+    };
     let mut used = 0u32;
     for (&g, &z) in pixels {
         let (rx, ry, rz) = (dx, dy, dz);
@@ -416,14 +422,25 @@ where
                 continue;
             }
         }
-        if let Some(acc) = scratch.get_mut(row as usize * n as usize + col as usize) {
-            if *acc < SATURATED {
-                *acc += ONE_SAMPLE | u32::from(g);
+        let k = row as usize * n as usize + col as usize;
+        if let (Some(c), Some(sum)) = (counts.get_mut(k), sums.get_mut(k)) {
+            if *c < SATURATED {
+                *c += 1;
+                // At most 255 samples of at most 255: the sum stays <= 65,025.
+                *sum += u16::from(g);
             }
             used += 1;
         }
     }
     used
+}
+
+/// The per-cell accumulator: gray sums (`u16`, in the caller's scratch) and sample counts
+/// (`u8`, in the caller's mask until [`RangeAccumulator::finish`]).
+#[derive(Debug)]
+struct Cells<'s> {
+    sums: &'s mut [u16],
+    counts: &'s mut [u8],
 }
 
 /// Incremental range reprojection for callers that produce one view (or one depth image)
@@ -432,7 +449,7 @@ where
 /// the top-down image. [`reproject_range`] does all three for four views.
 #[derive(Debug)]
 pub struct RangeAccumulator<'s> {
-    scratch: &'s mut [u32],
+    cells: Cells<'s>,
     params: CameraParams,
     pose: RoverPose,
     grid: GridSpec,
@@ -442,28 +459,49 @@ pub struct RangeAccumulator<'s> {
 
 impl<'s> RangeAccumulator<'s> {
     /// Checks the parameters and clears `scratch` ([`range_scratch_len`]`(grid.n)`
-    /// elements).
+    /// elements) and `mask` (`n * n` bytes, the sample counts until
+    /// [`RangeAccumulator::finish`] writes the validity mask there).
     pub fn new(
         params: &CameraParams,
         pose: &RoverPose,
         grid: &GridSpec,
         opts: &RangeOptions,
         scratch: &'s mut [u32],
+        mask: &'s mut [u8],
     ) -> Result<Self, RangeError> {
         grid.validate()?;
         params.validate().map_err(ReprojectError::from)?;
         pose.validate().map_err(ReprojectError::from)?;
         validate_options(opts)?;
         let cells = grid.cells();
-        if scratch.len() != cells {
+        let needed = range_scratch_len(grid.n);
+        if scratch.len() != needed {
             return Err(RangeError::ScratchSize {
-                needed: cells,
+                needed,
                 got: scratch.len(),
             });
         }
-        scratch.fill(0);
+        if mask.len() != cells {
+            return Err(ReprojectError::BufferSize {
+                buffer: Buffer::Mask,
+                needed: cells,
+                got: mask.len(),
+            }
+            .into());
+        }
+        // Safety: `u16` is valid for every bit pattern and its alignment divides `u32`'s,
+        // so `align_to_mut` views the whole word buffer as half-words (empty prefix and
+        // suffix).
+        let (_, sums, _) = unsafe { scratch.align_to_mut::<u16>() };
+        let halves = sums.len();
+        let sums = sums.get_mut(..cells).ok_or(RangeError::ScratchSize {
+            needed,
+            got: scratch_words(halves),
+        })?;
+        sums.fill(0);
+        mask.fill(0);
         Ok(Self {
-            scratch,
+            cells: Cells { sums, counts: mask },
             params: *params,
             pose: *pose,
             grid: *grid,
@@ -737,7 +775,7 @@ impl<'s> RangeAccumulator<'s> {
         ];
         let read = w.div_ceil(stride.max(1)) as u64;
         let lim = &s.lim;
-        let scratch = &mut *self.scratch;
+        let scratch = &mut self.cells;
         // Monomorphized per limit set so the default (no height band, no range limit)
         // loop keeps its state in registers.
         let used = match (s.height_band, s.range_lim) {
@@ -755,39 +793,41 @@ impl<'s> RangeAccumulator<'s> {
     }
 
     /// Averages the samples per cell into `out` (`n * n` gray levels, north-up, 0 where no
-    /// data) and `mask` (`n * n`; 255 valid, 0 no data), fills holes, and returns the
-    /// report of the whole reprojection.
-    pub fn finish(self, out: &mut [u8], mask: &mut [u8]) -> Result<RangeReport, RangeError> {
+    /// data) and the mask given to [`RangeAccumulator::new`] (255 valid, 0 no data), fills
+    /// holes, and returns the report of the whole reprojection.
+    pub fn finish(self, out: &mut [u8]) -> Result<RangeReport, RangeError> {
         let n = self.grid.n;
         let cells = self.grid.cells();
-        for (buffer, got) in [(Buffer::Output, out.len()), (Buffer::Mask, mask.len())] {
-            if got != cells {
-                return Err(ReprojectError::BufferSize {
-                    buffer,
-                    needed: cells,
-                    got,
-                }
-                .into());
+        if out.len() != cells {
+            return Err(ReprojectError::BufferSize {
+                buffer: Buffer::Output,
+                needed: cells,
+                got: out.len(),
             }
+            .into());
         }
-        let scratch = &*self.scratch;
+        let Cells { sums, counts: mask } = self.cells;
         let mut report = self.report;
-        // Per cell: mean of the samples.
+        // Per cell: mean of the samples; the sum's slot then keeps whether the cell was
+        // sampled (1) or not (0), the validity the hole filling reads.
         let mut valid = 0usize;
-        for ((&acc, o), m) in scratch.iter().zip(out.iter_mut()).zip(mask.iter_mut()) {
-            let cnt = acc >> 24;
-            match ((acc & SUM_MASK) + cnt / 2).checked_div(cnt) {
+        for ((s, o), m) in sums.iter_mut().zip(out.iter_mut()).zip(mask.iter_mut()) {
+            let cnt = u32::from(*m);
+            match (u32::from(*s) + cnt / 2).checked_div(cnt) {
                 Some(v) => {
                     *o = v.min(255) as u8;
                     *m = 255;
+                    *s = 1;
                     valid += 1;
                 }
                 None => {
                     *o = 0;
                     *m = 0;
+                    *s = 0;
                 }
             }
         }
+        let scratch = &*sums;
         report.cells_visited += cells as u64;
         // Hole filling: validity from the accumulator (unchanged), values from sampled
         // cells.
@@ -797,7 +837,7 @@ impl<'s> RangeAccumulator<'s> {
             for r in 0..n {
                 for c in 0..n {
                     let k = r * n + c;
-                    if scratch.get(k).is_none_or(|&a| a >> 24 != 0) {
+                    if scratch.get(k).is_none_or(|&a| a != 0) {
                         continue;
                     }
                     let (mut nv, mut sum) = (0u32, 0u32);
@@ -808,7 +848,7 @@ impl<'s> RangeAccumulator<'s> {
                                 continue;
                             }
                             if let (Some(&a), Some(&v)) = (scratch.get(kk), out.get(kk)) {
-                                if a >> 24 != 0 {
+                                if a != 0 {
                                     nv += 1;
                                     sum += u32::from(v);
                                 }
@@ -852,17 +892,15 @@ pub fn reproject_range(
     out: &mut [u8],
     mask: &mut [u8],
 ) -> Result<RangeReport, RangeError> {
-    let mut acc = RangeAccumulator::new(params, pose, grid, opts, scratch)?;
+    let mut acc = RangeAccumulator::new(params, pose, grid, opts, scratch, mask)?;
     let cells = grid.cells();
-    for (buffer, got) in [(Buffer::Output, out.len()), (Buffer::Mask, mask.len())] {
-        if got != cells {
-            return Err(ReprojectError::BufferSize {
-                buffer,
-                needed: cells,
-                got,
-            }
-            .into());
+    if out.len() != cells {
+        return Err(ReprojectError::BufferSize {
+            buffer: Buffer::Output,
+            needed: cells,
+            got: out.len(),
         }
+        .into());
     }
     for ((f, d), view) in frames.iter().zip(depths).zip(View::ALL) {
         if let Some(f) = f {
@@ -874,7 +912,12 @@ pub fn reproject_range(
             acc.add_view(view, f, d.as_ref())?;
         }
     }
-    acc.finish(out, mask)
+    acc.finish(out)
+}
+
+/// `u32` words that hold `halves` `u16` values.
+const fn scratch_words(halves: usize) -> usize {
+    halves.div_ceil(2)
 }
 
 #[cfg(test)]
@@ -883,14 +926,18 @@ mod tests {
 
     #[test]
     fn accumulator_saturates_and_averages() {
-        let mut acc = 0u32;
+        // The per-pixel update of `place_pixels` at its worst: white samples beyond the
+        // saturating count (an overflowing sum panics here, in a debug test build).
+        let (mut c, mut sum) = (0u8, 0u16);
         for _ in 0..300 {
-            if acc < SATURATED {
-                acc += ONE_SAMPLE | 255;
+            if c < SATURATED {
+                c += 1;
+                sum += 255;
             }
         }
-        assert_eq!(acc >> 24, 255);
-        assert_eq!((acc & SUM_MASK) / (acc >> 24), 255);
+        assert_eq!(c, 255);
+        assert_eq!(sum, 65_025);
+        assert_eq!(u32::from(sum) / u32::from(c), 255);
     }
 
     #[test]

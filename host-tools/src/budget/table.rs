@@ -584,9 +584,11 @@ impl Budget {
         ));
         m.push_str(
             "No heap: the firmware has no allocator; every buffer's size comes from \
-             `orbfix::fix::fix_buffer_sizes`. The work area (the range reprojection's \
-             accumulator, 4 bytes per top-down cell, then the refinement's images) is placed \
-             in external memory and counted as working memory all the same.\n\n",
+             `orbfix::fix::fix_buffer_sizes`. The work area is shared by the stages in turn: \
+             the range reprojection's accumulator (a `u16` gray sum per top-down cell; the \
+             sample counts live in the mask) with the stereo stage's scratch, then the CNN's \
+             arena and input, then the refinement's images. It is placed in external memory \
+             and counted as working memory all the same.\n\n",
         );
         m.push_str("## No panics\n\n");
         if self.panic_free {
