@@ -40,3 +40,36 @@ pub(crate) fn smlad(acc: i32, x: u32, y: u32) -> i32 {
     let p = |s: u32| (x >> s) as u16 as i16 as i32 * ((y >> s) as u16 as i16 as i32);
     acc.wrapping_add(p(0)).wrapping_add(p(16))
 }
+
+/// The model of `nn::dsp::mac_2x2`: the same reads, products and pointer steps.
+///
+/// # Safety
+/// As `nn::dsp::mac_2x2`: `*col` points to four readable, aligned `u32`, `*wa` and `*wb`
+/// to four readable bytes each.
+pub(crate) unsafe fn mac_2x2(
+    acc: &mut [i32; 4],
+    col: &mut *const u32,
+    wa: &mut *const i8,
+    wb: &mut *const i8,
+) {
+    // Safety: the caller guarantees every read below is inside its buffer.
+    let (c, x, y) = unsafe {
+        (
+            [col.read(), col.add(1).read(), col.add(2).read(), col.add(3).read()],
+            wa.cast::<u32>().read_unaligned(),
+            wb.cast::<u32>().read_unaligned(),
+        )
+    };
+    let [a0, a1, b0, b1] = acc;
+    let (ea, oa, eb, ob) = (sxtb16(x), sxtb16_ror8(x), sxtb16(y), sxtb16_ror8(y));
+    *a0 = smlad(smlad(*a0, c[0], ea), c[2], oa);
+    *a1 = smlad(smlad(*a1, c[1], ea), c[3], oa);
+    *b0 = smlad(smlad(*b0, c[0], eb), c[2], ob);
+    *b1 = smlad(smlad(*b1, c[1], eb), c[3], ob);
+    // Safety: one past the four values read, inside or one past the caller's buffers.
+    unsafe {
+        *col = col.add(4);
+        *wa = wa.add(4);
+        *wb = wb.add(4);
+    }
+}

@@ -24,9 +24,9 @@ use super::requant::requantize;
 use super::NnError;
 
 #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-use super::dsp::{smlad, sxtab16, sxtab16_ror8, sxtb16, sxtb16_ror8};
+use super::dsp::{mac_2x2, sxtab16, sxtab16_ror8};
 #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
-use super::dsp_model::{smlad, sxtab16, sxtab16_ror8, sxtb16, sxtb16_ror8};
+use super::dsp_model::{mac_2x2, sxtab16, sxtab16_ror8};
 
 /// `i16` scratch elements the DSP path needs for a field of `field` values: two
 /// interleaved columns (`2 field`) plus one element to align them to 32 bits.
@@ -251,15 +251,6 @@ impl OutputQ {
     }
 }
 
-/// The int8 word of four weights (any alignment: one `LDR` on the Cortex-M7).
-#[inline(always)]
-fn word(w: &[i8]) -> u32 {
-    match *w {
-        [a, b, c, d] => u32::from_le_bytes([a as u8, b as u8, c as u8, d as u8]),
-        _ => 0,
-    }
-}
-
 /// `[ba + col0 . wa, ba + col1 . wa, bb + col0 . wb, bb + col1 . wb]` for the two
 /// interleaved columns `col` (the module's layout, `wa.len()` words) and two channels'
 /// weights `wa`, `wb` (same length).
@@ -268,26 +259,24 @@ fn word(w: &[i8]) -> u32 {
 /// input (`nn::weights`), so `SMLAD`'s wrapping adds equal the portable `i32` sums.
 #[inline(always)]
 fn dot_2x2(col: &[u32], wa: &[i8], wb: &[i8], (ba, bb): (i32, i32)) -> [i32; 4] {
-    let (mut a0, mut a1, mut b0, mut b1) = (ba, ba, bb, bb);
-    let (cq, xa, xb) = (col.chunks_exact(4), wa.chunks_exact(4), wb.chunks_exact(4));
-    let (ct, ta, tb) = (cq.remainder(), xa.remainder(), xb.remainder());
-    for (c, (xa, xb)) in cq.zip(xa.zip(xb)) {
-        let [c0, c1, c2, c3] = match *c {
-            [c0, c1, c2, c3] => [c0, c1, c2, c3],
-            _ => [0; 4],
-        };
-        let (wa, wb) = (word(xa), word(xb));
-        let (ea, eb) = (sxtb16(wa), sxtb16(wb));
-        a0 = smlad(a0, c0, ea);
-        a1 = smlad(a1, c1, ea);
-        b0 = smlad(b0, c0, eb);
-        b1 = smlad(b1, c1, eb);
-        let (oa, ob) = (sxtb16_ror8(wa), sxtb16_ror8(wb));
-        a0 = smlad(a0, c2, oa);
-        a1 = smlad(a1, c3, oa);
-        b0 = smlad(b0, c2, ob);
-        b1 = smlad(b1, c3, ob);
+    let quads = col.len() / 4;
+    let mut acc = [ba, ba, bb, bb];
+    if wa.len() >= 4 * quads && wb.len() >= 4 * quads {
+        let (mut c, mut pa, mut pb) = (col.as_ptr(), wa.as_ptr(), wb.as_ptr());
+        for _ in 0..quads {
+            // Safety: pass `i < quads` reads column words `4 i .. 4 i + 4` (< `col.len()`,
+            // aligned as `col` is a `u32` slice) and weight bytes `4 i .. 4 i + 4` of `wa`
+            // and `wb` (< `4 quads`, checked above); each pass advances the pointers by
+            // exactly that much.
+            unsafe { mac_2x2(&mut acc, &mut c, &mut pa, &mut pb) };
+        }
     }
+    let [mut a0, mut a1, mut b0, mut b1] = acc;
+    let (ct, ta, tb) = (
+        col.get(4 * quads..).unwrap_or(&[]),
+        wa.get(4 * quads..).unwrap_or(&[]),
+        wb.get(4 * quads..).unwrap_or(&[]),
+    );
     for (&c, (&wa, &wb)) in ct.iter().zip(ta.iter().zip(tb)) {
         let (x0, x1) = (c as u16 as i16 as i32, (c >> 16) as u16 as i16 as i32);
         let (wa, wb) = (wa as i32, wb as i32);
