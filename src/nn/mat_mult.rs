@@ -243,6 +243,13 @@ impl OutputQ {
         if q.saturates() {
             return requantize(acc, m, sh, self.offset, self.min, self.max);
         }
+        self.put_fast(q, acc)
+    }
+
+    /// [`requantize`] of `acc` for a channel `q` that does not saturate
+    /// (`!q.saturates()`).
+    #[inline(always)]
+    fn put_fast(&self, q: &ChannelQ, acc: i32) -> i8 {
         // max-then-min as `requantize` (no clamp panic path).
         q.scale(acc)
             .saturating_add(self.offset)
@@ -303,49 +310,83 @@ pub(crate) struct Channels<'a> {
 }
 
 /// All output channels of the two pixels whose columns are in `col` (`field` words): pixel 0
-/// into `out0`, pixel 1 into `out1` when there is one (`oc` values each).
-fn channels_2px(
+/// into `out0`, pixel 1 into `out1` when `TWO` (else `out1` is not touched); `oc` values
+/// each.
+fn channels_2px<const TWO: bool>(
     col: &[u32],
     ch: &Channels<'_>,
     out0: &mut [i8],
-    mut out1: Option<&mut [i8]>,
+    out1: &mut [i8],
 ) -> Result<(), NnError> {
     let field = col.len();
     let oc = ch.bias.len();
-    let mut c = 0usize;
-    while c < oc {
-        // The last channel of an odd count runs as its own pair (its second half unused).
-        let d = if c + 1 < oc { c + 1 } else { c };
-        let (Some(wa), Some(wb)) = (
-            ch.weights.get(c * field..(c + 1) * field),
-            ch.weights.get(d * field..(d + 1) * field),
-        ) else {
+    let (Some(weights), Some(multiplier), Some(shift), Some(o0)) = (
+        ch.weights.get(..oc * field),
+        ch.multiplier.get(..oc),
+        ch.shift.get(..oc),
+        out0.get_mut(..oc),
+    ) else {
+        return Err(NnError::BufferSize);
+    };
+    let o1: &mut [i8] = if TWO {
+        out1.get_mut(..oc).ok_or(NnError::BufferSize)?
+    } else {
+        &mut []
+    };
+    let o = &ch.out;
+    let pair_len = field
+        .checked_mul(2)
+        .filter(|&n| n > 0)
+        .ok_or(NnError::BadGeometry)?;
+    // Channel pairs (iterators over equal-length chunks: no bounds checks inside).
+    let mut o1p = o1.chunks_exact_mut(2);
+    let pairs = weights
+        .chunks_exact(pair_len)
+        .zip(ch.bias.chunks_exact(2))
+        .zip(multiplier.chunks_exact(2).zip(shift.chunks_exact(2)))
+        .zip(o0.chunks_exact_mut(2));
+    for (((w, b), (m, sh)), y0) in pairs {
+        let (Some((wa, wb)), [ba, bb], [ma, mb], [sa, sb], [y0a, y0b]) =
+            (w.split_at_checked(field), b, m, sh, y0)
+        else {
             return Err(NnError::BufferSize);
         };
-        let (Some(&ba), Some(&bb), Some(&ma), Some(&mb), Some(&sa), Some(&sb)) = (
-            ch.bias.get(c),
-            ch.bias.get(d),
-            ch.multiplier.get(c),
-            ch.multiplier.get(d),
-            ch.shift.get(c),
-            ch.shift.get(d),
-        ) else {
-            return Err(NnError::BufferSize);
+        let [a0, a1, b0, b1] = dot_2x2(col, wa, wb, (*ba, *bb));
+        let (qa, qb) = (ChannelQ::new(*ma, *sa), ChannelQ::new(*mb, *sb));
+        let fast = !(qa.saturates() || qb.saturates());
+        let put = |q: &ChannelQ, m: i32, sh: i32, acc: i32| {
+            if fast {
+                o.put_fast(q, acc)
+            } else {
+                requantize(acc, m, sh, o.offset, o.min, o.max)
+            }
         };
-        let [a0, a1, b0, b1] = dot_2x2(col, wa, wb, (ba, bb));
-        let (qa, qb) = (ChannelQ::new(ma, sa), ChannelQ::new(mb, sb));
-        let o = &ch.out;
-        *out0.get_mut(c).ok_or(NnError::BufferSize)? = o.put(&qa, (ma, sa), a0);
-        if let Some(out1) = out1.as_deref_mut() {
-            *out1.get_mut(c).ok_or(NnError::BufferSize)? = o.put(&qa, (ma, sa), a1);
-        }
-        if d != c {
-            *out0.get_mut(d).ok_or(NnError::BufferSize)? = o.put(&qb, (mb, sb), b0);
-            if let Some(out1) = out1.as_deref_mut() {
-                *out1.get_mut(d).ok_or(NnError::BufferSize)? = o.put(&qb, (mb, sb), b1);
+        *y0a = put(&qa, *ma, *sa, a0);
+        *y0b = put(&qb, *mb, *sb, b0);
+        if TWO {
+            if let Some([y1a, y1b]) = o1p.next() {
+                *y1a = put(&qa, *ma, *sa, a1);
+                *y1b = put(&qb, *mb, *sb, b1);
             }
         }
-        c += 2;
+    }
+    // An odd channel count's last channel, as a pair with itself.
+    if oc % 2 == 1 {
+        let c = oc - 1;
+        let (Some(w), Some(&b), Some(&m), Some(&sh)) = (
+            weights.get(c * field..),
+            ch.bias.get(c),
+            multiplier.get(c),
+            shift.get(c),
+        ) else {
+            return Err(NnError::BufferSize);
+        };
+        let [a0, a1, _, _] = dot_2x2(col, w, w, (b, b));
+        let q = ChannelQ::new(m, sh);
+        *o0.get_mut(c).ok_or(NnError::BufferSize)? = o.put(&q, (m, sh), a0);
+        if TWO {
+            *o1.get_mut(c).ok_or(NnError::BufferSize)? = o.put(&q, (m, sh), a1);
+        }
     }
     Ok(())
 }
@@ -406,15 +447,18 @@ pub(crate) fn conv2d(
     };
     while let Some(out0) = rows.next() {
         gather(col, 0, input, &g, next())?;
-        let out1 = rows.next();
-        if out1.is_some() {
-            gather(col, 1, input, &g, next())?;
-        } else {
-            // An odd pixel count's last pixel: its partner's column is zero (its sums are
-            // not written).
-            put_values(col, 1, 0, (0..field).map(|_| None), 0)?;
+        match rows.next() {
+            Some(out1) => {
+                gather(col, 1, input, &g, next())?;
+                channels_2px::<true>(col, ch, out0, out1)?;
+            }
+            None => {
+                // An odd pixel count's last pixel: its partner's column is zero (its sums
+                // are not written).
+                put_values(col, 1, 0, (0..field).map(|_| None), 0)?;
+                channels_2px::<false>(col, ch, out0, &mut [])?;
+            }
         }
-        channels_2px(col, ch, out0, out1)?;
     }
     Ok(())
 }
