@@ -44,17 +44,11 @@ const fn offset_pair(offset: i32) -> u32 {
     (offset as u32 & 0xffff) * 0x1_0001
 }
 
-/// Packs `v` into lane `lane` (0 or 1) of `word`.
-#[inline(always)]
-fn set_lane(word: &mut u32, lane: usize, v: i32) {
-    let s = 16 * (lane as u32 & 1);
-    *word = (*word & !(0xffff << s)) | ((v as u32 & 0xffff) << s);
-}
-
-/// Writes the `src.len()` values `src + offset` (int16, truncated as the portable kernel
-/// truncates) of field positions `start ..` into slot `slot` (0 or 1) of `col`, any
-/// alignment of `start` (the general gather, used when the channels are not a multiple of
-/// four). `None` values are padding (0 after the offset).
+/// Writes the values `src + offset` (int16, truncated as the portable kernel truncates) of
+/// field positions `start ..` into slot `slot` (0 or 1) of `col`, any alignment of `start`
+/// (the general gather, used when the channels are not a multiple of four): one int16 store
+/// each, at the lane the module's layout gives it. `None` values are padding (0 after the
+/// offset).
 fn put_values<I: Iterator<Item = Option<i8>>>(
     col: &mut [u32],
     slot: usize,
@@ -62,21 +56,24 @@ fn put_values<I: Iterator<Item = Option<i8>>>(
     src: I,
     offset: i32,
 ) -> Result<(), NnError> {
-    let field = col.len();
-    let quad_end = field / 4 * 4;
+    let quad_end = col.len() / 4 * 4;
+    // Safety: `i16` has no invalid bit patterns and `u32`'s alignment is a multiple of
+    // `i16`'s, so the view is the whole of `col` (empty prefix and suffix), borrowed
+    // exclusively for this call.
+    let (_, col, _) = unsafe { col.align_to_mut::<i16>() };
+    let s = slot & 1;
     for (i, v) in src.enumerate() {
         let e = start + i;
-        let v = v.map_or(0, |s| (s as i32).wrapping_add(offset));
-        let (word, lane) = if e < quad_end {
-            (e / 4 * 4 + 2 * (e % 2) + (slot & 1), (e % 4) / 2)
+        let v = v.map_or(0, |x| (x as i32).wrapping_add(offset)) as i16;
+        // Word `4 q + 2 (r & 1) + s`, lane `r >> 1` for `e = 4 q + r` in the quads; word
+        // `e`, lane `s` in the tail; lane 0 is the lower address on a little-endian target.
+        let at = if e < quad_end {
+            2 * (e & !3) + 4 * (e & 1) + 2 * s + ((e >> 1) & 1)
         } else {
-            (e, slot & 1)
+            2 * e + s
         };
-        set_lane(
-            col.get_mut(word).ok_or(NnError::ScratchTooSmall)?,
-            lane,
-            v,
-        );
+        let at = if cfg!(target_endian = "big") { at ^ 1 } else { at };
+        *col.get_mut(at).ok_or(NnError::ScratchTooSmall)? = v;
     }
     Ok(())
 }
