@@ -3,8 +3,8 @@
 //! deviation over the valid pixels, quantized with scale `1 / INPUT_UNITS_PER_SIGMA`, zero
 //! point 0. Invalid pixels become 0 (the mean), so the mask multiplies the input.
 //!
-//! Integer only: box sums, a Q4 mean per cell, an integer square root and one int64
-//! division per pixel.
+//! Integer only: box sums, a Q4 mean per cell, an integer square root and one integer
+//! division per pixel (32-bit where the operands fit, which they do for every valid input).
 
 use super::NnError;
 use crate::image::ImageView;
@@ -151,13 +151,23 @@ pub fn prepare_input_view(
             None => 0,
             Some(v) => {
                 let num = INPUT_UNITS_PER_SIGMA * (n * v as i64 - s);
-                // Round half away from zero.
-                let r = if num >= 0 {
-                    (2 * num + std_n).checked_div(den)
-                } else {
-                    (2 * num - std_n).checked_div(den)
+                // Round half away from zero: `(2 |num| + std_n) / den` with the sign of
+                // `num` (truncating division is symmetric). With `v <= 4080` (Q4 of 255)
+                // and `n <= 4096` cells, `|num| <= 32 * 4096 * 4080 < 2^29` and
+                // `std_n < 2^25`, so both operands fit a `u32` and one hardware `UDIV`
+                // gives the same quotient as the 64-bit division (kept for any other
+                // input).
+                let mag = 2 * num.unsigned_abs() + std_n as u64;
+                let q = match (u32::try_from(mag), u32::try_from(den)) {
+                    (Ok(m), Ok(d)) => m.checked_div(d).map(u64::from),
+                    _ => mag.checked_div(den as u64),
                 };
-                r.ok_or(NnError::FlatInput)?.clamp(-127, 127) as i8
+                let q = q.ok_or(NnError::FlatInput)?.min(127) as i8;
+                if num >= 0 {
+                    q
+                } else {
+                    -q
+                }
             }
         };
     }
