@@ -63,9 +63,11 @@ pub fn dense_s8(
     // (`nn::mat_mult`, its two columns on the stack: 516 bytes).
     #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
     if in_f <= super::mat_mult::DENSE_MAX_IN {
-        let (Some(bias), Some(multiplier), Some(shift)) =
-            (bias.get(..out_f), multiplier.get(..out_f), shift.get(..out_f))
-        else {
+        let (Some(bias), Some(multiplier), Some(shift)) = (
+            bias.get(..out_f),
+            multiplier.get(..out_f),
+            shift.get(..out_f),
+        ) else {
             return Err(NnError::BufferSize);
         };
         let ch = super::mat_mult::Channels {

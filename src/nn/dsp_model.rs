@@ -55,7 +55,12 @@ pub(crate) unsafe fn mac_2x2(
     // Safety: the caller guarantees every read below is inside its buffer.
     let (c, x, y) = unsafe {
         (
-            [col.read(), col.add(1).read(), col.add(2).read(), col.add(3).read()],
+            [
+                col.read(),
+                col.add(1).read(),
+                col.add(2).read(),
+                col.add(3).read(),
+            ],
             wa.cast::<u32>().read_unaligned(),
             wb.cast::<u32>().read_unaligned(),
         )

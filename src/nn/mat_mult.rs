@@ -72,7 +72,11 @@ fn put_values<I: Iterator<Item = Option<i8>>>(
         } else {
             2 * e + s
         };
-        let at = if cfg!(target_endian = "big") { at ^ 1 } else { at };
+        let at = if cfg!(target_endian = "big") {
+            at ^ 1
+        } else {
+            at
+        };
         *col.get_mut(at).ok_or(NnError::ScratchTooSmall)? = v;
     }
     Ok(())
@@ -153,7 +157,9 @@ fn gather(
                 }
             } else {
                 match src {
-                    Some(src) => put_values(col, slot, start, src.iter().map(|&v| Some(v)), g.offset)?,
+                    Some(src) => {
+                        put_values(col, slot, start, src.iter().map(|&v| Some(v)), g.offset)?
+                    }
                     None => put_values(col, slot, start, (0..ic).map(|_| None), g.offset)?,
                 }
             }
@@ -429,9 +435,7 @@ pub(crate) fn conv2d(
         off2: offset_pair(p.input_offset),
         offset: p.input_offset,
     };
-    let out = output
-        .get_mut(..oh * ow * oc)
-        .ok_or(NnError::BufferSize)?;
+    let out = output.get_mut(..oh * ow * oc).ok_or(NnError::BufferSize)?;
     let mut rows = out.chunks_exact_mut(oc);
     let (mut oy, mut ox) = (0usize, 0usize);
     let mut next = || {
@@ -536,7 +540,11 @@ mod tests {
                 rng.range(-14, 2) as i32
             };
             let (off, lo, hi) = (rng.range(-130, 130) as i32, -128, 127);
-            let (lo, hi) = if i % 4 == 0 { (off.clamp(-128, 127), hi) } else { (lo, hi) };
+            let (lo, hi) = if i % 4 == 0 {
+                (off.clamp(-128, 127), hi)
+            } else {
+                (lo, hi)
+            };
             let q = OutputQ {
                 offset: off,
                 min: lo,
@@ -581,7 +589,8 @@ mod tests {
         weights
             .iter_mut()
             .for_each(|v| *v = rng.range(-127, 127) as i8);
-        let (mut bias, mut multiplier, mut shift) = ([0i32; MAX_OC], [0i32; MAX_OC], [0i32; MAX_OC]);
+        let (mut bias, mut multiplier, mut shift) =
+            ([0i32; MAX_OC], [0i32; MAX_OC], [0i32; MAX_OC]);
         for c in 0..oc {
             bias[c] = rng.range(-5000, 5000) as i32;
             multiplier[c] = rng.range(1 << 30, i32::MAX as i64) as i32;
@@ -590,7 +599,11 @@ mod tests {
         let (bias, multiplier, shift) = (&bias[..oc], &multiplier[..oc], &shift[..oc]);
         let zp = rng.range(-128, 127) as i32;
         let relu = rng.next() % 2 == 0;
-        let out_zp = if relu { -128 } else { rng.range(-20, 20) as i32 };
+        let out_zp = if relu {
+            -128
+        } else {
+            rng.range(-20, 20) as i32
+        };
         let p = ConvParams {
             kernel,
             stride,
@@ -602,7 +615,14 @@ mod tests {
         };
         let oh = conv_out_size(h, kernel, stride, pad).unwrap();
         let ow = conv_out_size(w, kernel, stride, pad).unwrap();
-        let (in_dims, out_dims) = (Dims { h, w, c: ic }, Dims { h: oh, w: ow, c: oc });
+        let (in_dims, out_dims) = (
+            Dims { h, w, c: ic },
+            Dims {
+                h: oh,
+                w: ow,
+                c: oc,
+            },
+        );
         let want = &mut b.want[..out_dims.len()];
         // An odd offset into the scratch buffer tries the realignment.
         let len = conv2d_s8_buffer_size(kernel, ic);
@@ -633,9 +653,20 @@ mod tests {
         let got = &mut b.got[..out_dims.len()];
         got.fill(0x55);
         let start = (rng.next() % 2) as usize;
-        conv2d(&p, input, in_dims, &ch, got, out_dims, &mut b.scratch[start..start + len])
-            .unwrap();
-        assert_eq!(got, want, "{h}x{w}x{ic} -> {oc}, k {kernel} s {stride} p {pad}");
+        conv2d(
+            &p,
+            input,
+            in_dims,
+            &ch,
+            got,
+            out_dims,
+            &mut b.scratch[start..start + len],
+        )
+        .unwrap();
+        assert_eq!(
+            got, want,
+            "{h}x{w}x{ic} -> {oc}, k {kernel} s {stride} p {pad}"
+        );
         if kernel == 1 && stride == 1 && pad == 0 && ic <= DENSE_MAX_IN {
             got.fill(0x55);
             dense(p.input_offset, h * w, ic, input, &ch, got).unwrap();
@@ -666,7 +697,10 @@ mod tests {
             ((8, 8, 64), 32, (1, 1, 0)),
         ];
         for &(d, oc, g) in &shapes {
-            assert!(compare(&mut rng, &mut b, d, oc, g) > 20, "outputs too uniform to test");
+            assert!(
+                compare(&mut rng, &mut b, d, oc, g) > 20,
+                "outputs too uniform to test"
+            );
         }
         for case in 0..150 {
             let kernel = [1, 3, 5, 2][case % 4];
