@@ -82,6 +82,48 @@ fn put_values<I: Iterator<Item = Option<i8>>>(
     Ok(())
 }
 
+/// [`put_values`] for one kernel tap of `ic` values at field position `start`: `src` (plus
+/// `offset`), or padding (0) for `None`; a plain loop for the gather's inner level.
+#[inline(always)]
+fn put_tap(
+    col: &mut [u32],
+    slot: usize,
+    start: usize,
+    src: Option<&[i8]>,
+    ic: usize,
+    offset: i32,
+) -> Result<(), NnError> {
+    let quad_end = col.len() / 4 * 4;
+    // Safety: as in `put_values`: the `i16` view is the whole of `col`, borrowed
+    // exclusively for this call.
+    let (_, col, _) = unsafe { col.align_to_mut::<i16>() };
+    let s = slot & 1;
+    let mut put = |e: usize, v: i16| -> Result<(), NnError> {
+        // The lane of field position `e`, as in `put_values`.
+        let at = if e < quad_end {
+            2 * (e & !3) + 4 * (e & 1) + 2 * s + ((e >> 1) & 1)
+        } else {
+            2 * e + s
+        };
+        let at = if cfg!(target_endian = "big") { at ^ 1 } else { at };
+        *col.get_mut(at).ok_or(NnError::ScratchTooSmall)? = v;
+        Ok(())
+    };
+    match src {
+        Some(src) => {
+            for (i, &x) in src.iter().enumerate() {
+                put(start + i, (x as i32).wrapping_add(offset) as i16)?;
+            }
+        }
+        None => {
+            for i in 0..ic {
+                put(start + i, 0)?;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Writes `src.len() / 4` quads of `src + offset` into slot `slot` of the column words
 /// `dst` (4 words per quad): one word load and two `SXTAB16` per quad.
 #[inline(always)]
@@ -156,12 +198,7 @@ fn gather(
                     None => zero_quads(dst, slot),
                 }
             } else {
-                match src {
-                    Some(src) => {
-                        put_values(col, slot, start, src.iter().map(|&v| Some(v)), g.offset)?
-                    }
-                    None => put_values(col, slot, start, (0..ic).map(|_| None), g.offset)?,
-                }
+                put_tap(col, slot, start, src, ic, g.offset)?;
             }
             start += ic;
         }
