@@ -105,7 +105,11 @@ fn put_tap(
         } else {
             2 * e + s
         };
-        let at = if cfg!(target_endian = "big") { at ^ 1 } else { at };
+        let at = if cfg!(target_endian = "big") {
+            at ^ 1
+        } else {
+            at
+        };
         *col.get_mut(at).ok_or(NnError::ScratchTooSmall)? = v;
         Ok(())
     };
