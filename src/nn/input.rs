@@ -154,12 +154,35 @@ pub fn prepare_input_view(
     let (mut n, mut s, mut q) = (0u64, 0u64, 0u64);
     // One output row of cell values and its pixel counts (512 bytes).
     let (mut cells, mut count) = ([0u32; INPUT_SIDE], [0u32; INPUT_SIDE]);
-    for oy in 0..INPUT_SIDE {
+    // Every cell's 12-bit code (its Q4 mean, at most 4080 = 0xFF0, or `EMPTY` for no valid
+    // pixel) is kept between the two passes: the low 8 bits in `out`, the high 4 bits in
+    // `high` (two per byte, 2,048 bytes), so the source is walked once.
+    const EMPTY: u32 = 0xFFF;
+    let mut high = [0u8; INPUT_LEN / 2];
+    for ((orow, hrow), oy) in out
+        .chunks_exact_mut(INPUT_SIDE)
+        .zip(high.chunks_exact_mut(INPUT_SIDE / 2))
+        .zip(0..)
+    {
         row_cells(src, mask, oy, &mut cells, &mut count);
-        for &v in cells.iter().filter(|&&v| v != NO_CELL) {
-            n += 1;
-            s += v as u64;
-            q += (v as u64) * (v as u64);
+        for ((o, h), v) in orow
+            .chunks_exact_mut(2)
+            .zip(hrow.iter_mut())
+            .zip(cells.chunks_exact(2))
+        {
+            let (([o0, o1], [v0, v1]), h) = ((o, v), h) else {
+                return Err(NnError::BufferSize);
+            };
+            let code = |v: u32| if v == NO_CELL { EMPTY } else { v.min(0xFF0) };
+            let (c0, c1) = (code(*v0), code(*v1));
+            *o0 = c0 as u8 as i8;
+            *o1 = c1 as u8 as i8;
+            *h = (c0 >> 8) as u8 | ((c1 >> 8) as u8) << 4;
+            for &v in [*v0, *v1].iter().filter(|&&v| v != NO_CELL) {
+                n += 1;
+                s += v as u64;
+                q += (v as u64) * (v as u64);
+            }
         }
     }
     if (n as usize) < MIN_VALID_CELLS {
@@ -174,33 +197,32 @@ pub fn prepare_input_view(
     let (n, s) = (n as i64, s as i64);
     // std_n >= 4 n > 0 here (the flat-input check), so the divisor is never zero.
     let den = 2 * std_n;
-    for (oy, orow) in out.chunks_exact_mut(INPUT_SIDE).enumerate() {
-        row_cells(src, mask, oy, &mut cells, &mut count);
-        for (o, &v) in orow.iter_mut().zip(cells.iter()) {
-            *o = match v {
-                NO_CELL => 0,
-                v => {
-                    let num = INPUT_UNITS_PER_SIGMA * (n * v as i64 - s);
-                    // Round half away from zero: `(2 |num| + std_n) / den` with the sign of
-                    // `num` (truncating division is symmetric). With `v <= 4080` (Q4 of 255)
-                    // and `n <= 4096` cells, `|num| <= 32 * 4096 * 4080 < 2^29` and
-                    // `std_n < 2^25`, so both operands fit a `u32` and one hardware `UDIV`
-                    // gives the same quotient as the 64-bit division (kept for any other
-                    // input).
-                    let mag = 2 * num.unsigned_abs() + std_n as u64;
-                    let q = match (u32::try_from(mag), u32::try_from(den)) {
-                        (Ok(m), Ok(d)) => m.checked_div(d).map(u64::from),
-                        _ => mag.checked_div(den as u64),
-                    };
-                    let q = q.ok_or(NnError::FlatInput)?.min(127) as i8;
-                    if num >= 0 {
-                        q
-                    } else {
-                        -q
-                    }
+    for (i, o) in out.iter_mut().enumerate() {
+        let h = high.get(i / 2).map_or(0, |&h| (h >> (4 * (i % 2))) & 0xF);
+        let code = (*o as u8 as u32) | (h as u32) << 8;
+        *o = match code {
+            EMPTY => 0,
+            v => {
+                let num = INPUT_UNITS_PER_SIGMA * (n * v as i64 - s);
+                // Round half away from zero: `(2 |num| + std_n) / den` with the sign of
+                // `num` (truncating division is symmetric). With `v <= 4080` (Q4 of 255)
+                // and `n <= 4096` cells, `|num| <= 32 * 4096 * 4080 < 2^29` and
+                // `std_n < 2^25`, so both operands fit a `u32` and one hardware `UDIV`
+                // gives the same quotient as the 64-bit division (kept for any other
+                // input).
+                let mag = 2 * num.unsigned_abs() + std_n as u64;
+                let q = match (u32::try_from(mag), u32::try_from(den)) {
+                    (Ok(m), Ok(d)) => m.checked_div(d).map(u64::from),
+                    _ => mag.checked_div(den as u64),
+                };
+                let q = q.ok_or(NnError::FlatInput)?.min(127) as i8;
+                if num >= 0 {
+                    q
+                } else {
+                    -q
                 }
-            };
-        }
+            }
+        };
     }
     Ok(())
 }
