@@ -3,8 +3,10 @@
 //! deviation over the valid pixels, quantized with scale `1 / INPUT_UNITS_PER_SIGMA`, zero
 //! point 0. Invalid pixels become 0 (the mean), so the mask multiplies the input.
 //!
-//! Integer only: box sums, a Q4 mean per cell, an integer square root and one integer
-//! division per pixel (32-bit where the operands fit, which they do for every valid input).
+//! Integer only: box sums (the source walked once, one output row of cells at a time), a Q4
+//! mean per cell, an integer square root and one integer division per pixel (32-bit where
+//! the operands fit, which they do for every valid input). Stack: 2.5 KB (one row of cell
+//! sums, and the cells' high bits between the two passes).
 
 use super::NnError;
 use crate::image::ImageView;
