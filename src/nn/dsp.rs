@@ -26,40 +26,6 @@ pub(crate) fn sxtb16_pair(x: u32) -> (u32, u32) {
     (e, o)
 }
 
-/// `SXTB16 x`: int8 lanes 0 and 2 of `x` as an int16 pair (lane 0 in the low half).
-#[inline(always)]
-pub(crate) fn sxtb16(x: u32) -> u32 {
-    let e: u32;
-    // Safety: one register-only Armv7E-M DSP instruction (`armv7em-dsp` feature only); no
-    // memory, no stack, no flags.
-    unsafe {
-        core::arch::asm!(
-            "sxtb16 {e}, {x}",
-            x = in(reg) x,
-            e = out(reg) e,
-            options(pure, nomem, nostack, preserves_flags),
-        );
-    }
-    e
-}
-
-/// `SXTB16 x, ROR #8`: int8 lanes 1 and 3 of `x` as an int16 pair.
-#[inline(always)]
-pub(crate) fn sxtb16_ror8(x: u32) -> u32 {
-    let o: u32;
-    // Safety: one register-only Armv7E-M DSP instruction (`armv7em-dsp` feature only); no
-    // memory, no stack, no flags.
-    unsafe {
-        core::arch::asm!(
-            "sxtb16 {o}, {x}, ror #8",
-            x = in(reg) x,
-            o = out(reg) o,
-            options(pure, nomem, nostack, preserves_flags),
-        );
-    }
-    o
-}
-
 /// `SXTAB16 a, x`: `a`'s two int16 lanes plus int8 lanes 0 and 2 of `x`, each lane modulo
 /// `2^16`.
 #[inline(always)]
@@ -152,26 +118,6 @@ pub(crate) unsafe fn mac_2x2(
         );
     }
     *acc = [a0, a1, b0, b1];
-}
-
-/// `SMLAD acc, x, y`: `acc` plus the products of the two int16 lanes of `x` and `y`
-/// (modulo `2^32`; callers bound their sums below `2^31`).
-#[inline(always)]
-pub(crate) fn smlad(acc: i32, x: u32, y: u32) -> i32 {
-    let out: i32;
-    // Safety: one register-only Armv7E-M DSP instruction (`armv7em-dsp` feature only); no
-    // memory, no stack; it only sets the sticky Q bit on overflow, which nothing reads.
-    unsafe {
-        core::arch::asm!(
-            "smlad {out}, {x}, {y}, {acc}",
-            acc = in(reg) acc,
-            x = in(reg) x,
-            y = in(reg) y,
-            out = lateout(reg) out,
-            options(pure, nomem, nostack),
-        );
-    }
-    out
 }
 
 /// `acc + x . y` over four int8 lanes of `y`, with `x` given as int16 pairs `xe` (lanes 0,
