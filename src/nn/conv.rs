@@ -5,10 +5,12 @@
 //! field once into an int16 scratch row (`input + input_offset`, CMSIS-NN's im2col with
 //! widening), then every output channel is an int16 x int8 dot product accumulated in int32,
 //! a loop shape the Cortex-M7 DSP extension (SMLAD) handles two MACs at a time: with the
-//! `armv7em-dsp` feature on Arm, every pixel's output channels run through
-//! `channels_dsp` (four output channels per pass, four MACs per pair of SMLAD), bit-exact
-//! with the portable loop (the QEMU budget checks it on every stop).
+//! `armv7em-dsp` feature on Arm the kernel runs `nn::mat_mult` instead (two output pixels'
+//! fields gathered at once, two pixels x two output channels per pass, 16 MACs per eight
+//! SMLAD), bit-exact with the portable loop (host unit tests run it on instruction models;
+//! the QEMU budget checks the embedding on every stop).
 
+#[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
 use super::requant::requantize;
 use super::NnError;
 
@@ -69,9 +71,10 @@ pub const fn conv_out_size(
     Some((input + 2 * pad - kernel) / stride + 1)
 }
 
-/// Scratch needed by [`conv2d_s8`], in `i16` elements: one receptive field.
+/// Scratch needed by [`conv2d_s8`], in `i16` elements: two receptive fields (the DSP path
+/// gathers two output pixels at once) and one element to align them to 32 bits.
 pub const fn conv2d_s8_buffer_size(kernel: usize, in_c: usize) -> usize {
-    kernel * kernel * in_c
+    2 * kernel * kernel * in_c + 2
 }
 
 /// Multiply-accumulates of one convolution.
@@ -107,7 +110,7 @@ pub fn conv2d_s8(
         return Err(NnError::BadGeometry);
     }
     let (ic, oc) = (in_dims.c, out_dims.c);
-    let field = conv2d_s8_buffer_size(k, ic);
+    let field = k * k * ic;
     if input.len() < in_dims.len()
         || output.len() < out_dims.len()
         || weights.len() < oc * field
@@ -117,9 +120,59 @@ pub fn conv2d_s8(
     {
         return Err(NnError::BufferSize);
     }
-    if scratch.len() < field {
+    if scratch.len() < conv2d_s8_buffer_size(k, ic) {
         return Err(NnError::ScratchTooSmall);
     }
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    {
+        let (Some(weights), Some(bias), Some(multiplier), Some(shift)) = (
+            weights.get(..oc * field),
+            bias.get(..oc),
+            multiplier.get(..oc),
+            shift.get(..oc),
+        ) else {
+            return Err(NnError::BufferSize);
+        };
+        let ch = super::mat_mult::Channels {
+            weights,
+            bias,
+            multiplier,
+            shift,
+            out: super::mat_mult::OutputQ {
+                offset: p.output_offset,
+                min: p.act_min,
+                max: p.act_max,
+            },
+        };
+        super::mat_mult::conv2d(p, input, in_dims, &ch, output, out_dims, scratch)
+    }
+    #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+    conv2d_portable(
+        p,
+        input,
+        in_dims,
+        (weights, bias, multiplier, shift),
+        output,
+        (oh, ow, oc),
+        scratch,
+    )
+}
+
+/// The portable convolution (every target without the DSP path): one receptive field at a
+/// time into `scratch`, then one output channel at a time. Lengths checked by the caller.
+#[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+#[allow(clippy::type_complexity)]
+fn conv2d_portable(
+    p: &ConvParams,
+    input: &[i8],
+    in_dims: Dims,
+    (weights, bias, multiplier, shift): (&[i8], &[i32], &[i32], &[i32]),
+    output: &mut [i8],
+    (oh, ow, oc): (usize, usize, usize),
+    scratch: &mut [i16],
+) -> Result<(), NnError> {
+    let (k, ic) = (p.kernel, in_dims.c);
+    let field = k * k * ic;
     let (Some(col), Some(weights)) = (scratch.get_mut(..field), weights.get(..oc * field)) else {
         return Err(NnError::BufferSize);
     };
@@ -146,21 +199,6 @@ pub fn conv2d_s8(
                     ci += ic;
                 }
             }
-            #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-            {
-                channels_dsp(
-                    p.output_offset,
-                    (p.act_min, p.act_max),
-                    col,
-                    weights,
-                    bias,
-                    multiplier,
-                    shift,
-                    oc,
-                    &mut outs,
-                )?;
-            }
-            #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
             {
                 let col: &[i16] = col;
                 // One output channel per `field` weights (validated lengths above; the
@@ -182,126 +220,4 @@ pub fn conv2d_s8(
         }
     }
     Ok(())
-}
-
-/// The output channels of one pixel on the Armv7E-M DSP path: `col` (one receptive field)
-/// is reordered in groups of four to `c0 c2 c1 c3`, so that each
-/// 32-bit word holds the int16 pair [`super::dsp::smlad_pair`] multiplies with the
-/// `SXTB16`-split bytes of a weight word; four channels share every load of `col`.
-///
-/// No overflow: the weight file's validation bounds every accumulator below `2^31` for any
-/// input (`nn::weights`), so SMLAD's wrapping adds equal the portable `i32` sums.
-#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-#[allow(clippy::too_many_arguments)]
-#[inline(never)]
-pub(crate) fn channels_dsp<'o, I: Iterator<Item = &'o mut i8>>(
-    output_offset: i32,
-    act: (i32, i32),
-    col: &mut [i16],
-    weights: &[i8],
-    bias: &[i32],
-    multiplier: &[i32],
-    shift: &[i32],
-    oc: usize,
-    outs: &mut I,
-) -> Result<(), NnError> {
-    for g in col.chunks_exact_mut(4) {
-        g.swap(1, 2);
-    }
-    let col: &[i16] = col;
-    let field = col.len();
-    if field == 0 {
-        return Err(NnError::BadGeometry);
-    }
-    let (Some(weights), Some(bias), Some(multiplier), Some(shift)) = (
-        weights.get(..oc * field),
-        bias.get(..oc),
-        multiplier.get(..oc),
-        shift.get(..oc),
-    ) else {
-        return Err(NnError::BufferSize);
-    };
-    let mut put = |acc: i32, m: i32, sh: i32| -> Result<(), NnError> {
-        let y = outs.next().ok_or(NnError::BufferSize)?;
-        *y = requantize(acc, m, sh, output_offset, act.0, act.1);
-        Ok(())
-    };
-    let quads = oc / 4;
-    let (w4, w_rest) = weights
-        .split_at_checked(quads * 4 * field)
-        .ok_or(NnError::BufferSize)?;
-    for (q, w) in w4.chunks_exact(4 * field).enumerate() {
-        let (Some(b), Some(m), Some(sh)) = (
-            bias.get(4 * q..4 * q + 4),
-            multiplier.get(4 * q..4 * q + 4),
-            shift.get(4 * q..4 * q + 4),
-        ) else {
-            return Err(NnError::BufferSize);
-        };
-        let (Some((w0, w1)), Some((w2, w3))) = (
-            w.get(..2 * field).and_then(|h| h.split_at_checked(field)),
-            w.get(2 * field..).and_then(|h| h.split_at_checked(field)),
-        ) else {
-            return Err(NnError::BufferSize);
-        };
-        let b: [i32; 4] = b.try_into().map_err(|_| NnError::BufferSize)?;
-        let acc = dot4_dsp(col, [w0, w1, w2, w3], b);
-        for ((&a, &m), &sh) in acc.iter().zip(m).zip(sh) {
-            put(a, m, sh)?;
-        }
-    }
-    // The last `oc % 4` channels, one at a time.
-    for (i, w) in w_rest.chunks_exact(field).enumerate() {
-        let c = quads * 4 + i;
-        let (Some(&b), Some(&m), Some(&sh)) = (bias.get(c), multiplier.get(c), shift.get(c)) else {
-            return Err(NnError::BufferSize);
-        };
-        let acc = dot4_dsp(col, [w, w, w, w], [b, 0, 0, 0]);
-        put(acc[0], m, sh)?;
-    }
-    Ok(())
-}
-
-/// `b_k + col . w_k` for four channels, `col` reordered as [`channels_dsp`] says (a tail of
-/// `col.len() % 4` values, not reordered, is multiplied one by one).
-#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-#[inline(always)]
-fn dot4_dsp(col: &[i16], w: [&[i8]; 4], b: [i32; 4]) -> [i32; 4] {
-    use super::dsp::smlad_pair;
-    let word = |w: &[i8]| match *w {
-        [a, b, c, d] => u32::from_le_bytes([a as u8, b as u8, c as u8, d as u8]),
-        _ => 0,
-    };
-    let [mut a0, mut a1, mut a2, mut a3] = b;
-    let [w0, w1, w2, w3] = w;
-    let (c4, (x0, x1), (x2, x3)) = (
-        col.chunks_exact(4),
-        (w0.chunks_exact(4), w1.chunks_exact(4)),
-        (w2.chunks_exact(4), w3.chunks_exact(4)),
-    );
-    let tails = [
-        x0.remainder(),
-        x1.remainder(),
-        x2.remainder(),
-        x3.remainder(),
-    ];
-    let ctail = c4.remainder();
-    for (c, ((x0, x1), (x2, x3))) in c4.zip(x0.zip(x1).zip(x2.zip(x3))) {
-        let p = c.as_ptr().cast::<u32>();
-        // Safety: `c` is four `i16` (8 bytes), so both 4-byte reads are inside it;
-        // `read_unaligned` allows any alignment (one LDR on the Cortex-M7) and every bit
-        // pattern is a valid `u32`.
-        let (xe, xo) = unsafe { (p.read_unaligned(), p.add(1).read_unaligned()) };
-        a0 = smlad_pair(a0, xe, xo, word(x0));
-        a1 = smlad_pair(a1, xe, xo, word(x1));
-        a2 = smlad_pair(a2, xe, xo, word(x2));
-        a3 = smlad_pair(a3, xe, xo, word(x3));
-    }
-    let mut acc = [a0, a1, a2, a3];
-    for (a, t) in acc.iter_mut().zip(tails) {
-        for (&c, &w) in ctail.iter().zip(t) {
-            *a += c as i32 * w as i32;
-        }
-    }
-    acc
 }

@@ -23,10 +23,6 @@ pub const fn dense_macs(rows: usize, in_f: usize, out_f: usize) -> u64 {
     (rows * in_f * out_f) as u64
 }
 
-/// Widest input of the Armv7E-M DSP path of [`dense_s8`] (wider runs the portable loop).
-#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-const DSP_MAX_IN: usize = 256;
-
 /// `output[r][o] = requant(bias[o] + sum_i (input[r][i] + input_offset) * weights[o][i])`.
 ///
 /// `input`: `rows x in_f` int8; `weights`: `out_f x in_f` int8 symmetric; `bias`,
@@ -63,6 +59,30 @@ pub fn dense_s8(
     ) else {
         return Err(NnError::BufferSize);
     };
+    // The Armv7E-M DSP path: a 1 x 1 convolution, two rows x two outputs per pass
+    // (`nn::mat_mult`, its two columns on the stack: 516 bytes).
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    if in_f <= super::mat_mult::DENSE_MAX_IN {
+        let (Some(bias), Some(multiplier), Some(shift)) = (
+            bias.get(..out_f),
+            multiplier.get(..out_f),
+            shift.get(..out_f),
+        ) else {
+            return Err(NnError::BufferSize);
+        };
+        let ch = super::mat_mult::Channels {
+            weights,
+            bias,
+            multiplier,
+            shift,
+            out: super::mat_mult::OutputQ {
+                offset: p.output_offset,
+                min: p.act_min,
+                max: p.act_max,
+            },
+        };
+        return super::mat_mult::dense(p.input_offset, rows, in_f, input, &ch, output);
+    }
     // Checked splits instead of `chunks_exact` keep this free of panic paths.
     let (mut rows_in, mut outs) = (input, output.iter_mut());
     for _ in 0..rows {
@@ -70,27 +90,6 @@ pub fn dense_s8(
             return Err(NnError::BufferSize);
         };
         rows_in = r;
-        #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-        if in_f <= DSP_MAX_IN {
-            // The convolution's DSP path on a 1 x 1 receptive field (512 B on the stack).
-            let mut col = [0i16; DSP_MAX_IN];
-            let col = col.get_mut(..in_f).ok_or(NnError::BufferSize)?;
-            for (d, &a) in col.iter_mut().zip(row) {
-                *d = (a as i32 + p.input_offset) as i16;
-            }
-            super::conv::channels_dsp(
-                p.output_offset,
-                (p.act_min, p.act_max),
-                col,
-                weights,
-                bias,
-                multiplier,
-                shift,
-                out_f,
-                &mut outs,
-            )?;
-            continue;
-        }
         let mut rest = weights;
         for ((&b, &m), &sh) in bias.iter().zip(multiplier).zip(shift).take(out_f) {
             let (Some((w, r)), Some(y)) = (rest.split_at_checked(in_f), outs.next()) else {

@@ -14,14 +14,20 @@
 //! - [`model`]: the shipped network, its arena, cosine scoring;
 //! - [`matcher`]: the network behind the localization engine's `Matcher` trait;
 //! - [`window_cosine`]: the flight path's cosine against stored map-window records;
-//! - `dsp` (Arm with the `armv7em-dsp` feature only): the SXTB16 / SMLAD helpers of the
-//!   kernels' DSP paths.
+//! - `dsp` (Arm with the `armv7em-dsp` feature only): the SXTB16 / SXTAB16 / SMLAD helpers
+//!   of the kernels' DSP paths; `dsp_model`: their portable models for host tests;
+//! - `mat_mult` (Arm with `armv7em-dsp`, and host tests): the DSP path of the convolution
+//!   and dense layer, two output pixels x two output channels per pass.
 
 pub mod conv;
 pub mod dense;
 #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
 mod dsp;
+#[cfg(all(test, not(all(target_arch = "arm", feature = "armv7em-dsp"))))]
+mod dsp_model;
 pub mod input;
+#[cfg(any(test, all(target_arch = "arm", feature = "armv7em-dsp")))]
+mod mat_mult;
 pub mod matcher;
 pub mod model;
 pub mod pool;
