@@ -92,6 +92,12 @@ pub struct SelfCheck {
     pub redundant_run: bool,
 }
 
+/// Default [`FixConfig::accept_confidence_flat`]. On world seed 1 (development, 60 stops same
+/// sun + 60 cross sun, flat-ground path), the flat-ground fixes more than 5 m off had
+/// confidences up to 0.213; 0.30 keeps a margin above that. Held-out figures:
+/// `docs/fix-results-lut.md`.
+pub const ACCEPT_CONFIDENCE_FLAT: f32 = 0.30;
+
 /// Every setting of the fix.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -110,6 +116,12 @@ pub struct FixConfig {
     pub refine: RefineConfig,
     /// Confidence below which a fix is reported ambiguous.
     pub accept_confidence: f32,
+    /// Confidence below which a fix made on flat-ground reprojection ([`super::Depth::Flat`])
+    /// is reported ambiguous (the larger of this and [`FixConfig::accept_confidence`]
+    /// applies). Stricter: on relief the flat top-down image is smeared, and its wrong fixes
+    /// reach confidences that the depth paths only reach when right. Calibrated on world
+    /// seed 1 (`docs/fix-results-lut.md`).
+    pub accept_confidence_flat: f32,
     /// Stated error bounds.
     pub bounds: ErrorBounds,
     /// Self-checks.
@@ -148,6 +160,7 @@ impl Default for FixConfig {
                 rectify: true,
             },
             accept_confidence: 0.15,
+            accept_confidence_flat: ACCEPT_CONFIDENCE_FLAT,
             bounds: ErrorBounds {
                 ncc_m: 0.5,
                 cnn_m: 2.0,
@@ -197,6 +210,11 @@ impl FixConfig {
         }
         if !(self.accept_confidence.is_finite() && (0.0..=1.0).contains(&self.accept_confidence)) {
             return bad("accept_confidence");
+        }
+        if !(self.accept_confidence_flat.is_finite()
+            && (0.0..=1.0).contains(&self.accept_confidence_flat))
+        {
+            return bad("accept_confidence_flat");
         }
         let ok_bound = |v: f32| v.is_finite() && v > 0.0;
         if !(ok_bound(self.bounds.ncc_m) && ok_bound(self.bounds.cnn_m)) {

@@ -27,7 +27,8 @@
 //! suppression radius. Status: no data (too little of the top-down image, or nothing the
 //! CNN can embed), self-check failed, on border (the chosen window touches the map's edge:
 //! the truth may lie outside), ambiguous (confidence below
-//! [`FixConfig::accept_confidence`]), else ok. The error bound is the calibrated bound of
+//! [`FixConfig::accept_confidence`], or on flat ground below the stricter
+//! [`FixConfig::accept_confidence_flat`]), else ok. The error bound is the calibrated bound of
 //! the path that produced the fix ([`ErrorBounds`]).
 
 pub mod coarse;
@@ -41,7 +42,10 @@ mod scratch;
 mod stage;
 pub mod stereo_depth;
 
-pub use config::{ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck};
+pub use config::{
+    ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck,
+    ACCEPT_CONFIDENCE_FLAT,
+};
 pub use digest::{fnv1a, fnv1a_start, output_digest};
 pub use heading::{run_heading_search, HeadingFix, HeadingSearch, MAX_HEADINGS};
 pub use report::{FixError, FixPath, FixReport, FixStatus, ReprojectionSummary, StageOps};
@@ -428,13 +432,21 @@ fn run_once<C: StageClock>(
     };
     report.status = if on_border {
         FixStatus::OnBorder
-    } else if confidence < cfg.accept_confidence {
+    } else if confidence < accept_threshold(cfg, &inputs.depth) {
         FixStatus::Ambiguous
     } else {
         FixStatus::Ok
     };
     report.ops = ops;
     Ok(report)
+}
+
+/// The confidence a fix needs to be reported ok: stricter on flat-ground reprojection.
+fn accept_threshold(cfg: &FixConfig, depth: &Depth<'_>) -> f32 {
+    match depth {
+        Depth::Flat => cfg.accept_confidence.max(cfg.accept_confidence_flat),
+        Depth::Images(_) | Depth::Stereo(_) => cfg.accept_confidence,
+    }
 }
 
 /// CRC-32 of a weight file as the map product records it (the file's own trailer).
@@ -587,4 +599,45 @@ fn reproject_flat<C: StageClock>(
         valid_cells: report.valid_cells,
         stereo: None,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flat_ground_fixes_need_the_stricter_confidence() {
+        let cfg = FixConfig::default();
+        assert!(cfg.accept_confidence_flat > cfg.accept_confidence);
+        assert_eq!(
+            accept_threshold(&cfg, &Depth::Flat),
+            cfg.accept_confidence_flat
+        );
+        assert_eq!(
+            accept_threshold(&cfg, &Depth::Images([None; 4])),
+            cfg.accept_confidence
+        );
+        assert_eq!(
+            accept_threshold(&cfg, &Depth::Stereo([None; 4])),
+            cfg.accept_confidence
+        );
+        // The larger of the two applies on flat ground.
+        let mut loose = cfg;
+        loose.accept_confidence_flat = 0.0;
+        assert_eq!(
+            accept_threshold(&loose, &Depth::Flat),
+            cfg.accept_confidence
+        );
+        // A bad value is a named configuration error.
+        for bad in [f32::NAN, -0.1, 1.5, f32::INFINITY] {
+            let mut c = cfg;
+            c.accept_confidence_flat = bad;
+            assert_eq!(
+                c.validate(),
+                Err(FixError::BadConfig {
+                    field: "accept_confidence_flat"
+                })
+            );
+        }
+    }
 }
