@@ -1,6 +1,7 @@
 //! The band matcher: running-sum SAD block matching of rows `y0..y1` (see the module docs
 //! of [`super`] for the pipeline).
 
+use super::swar::{absdiff_u8x4, split_u8x4, word};
 use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
 use crate::image::ImageView;
 use crate::peak::parabola_min_offset;
@@ -15,11 +16,14 @@ pub(crate) fn bytes_len(w: usize, r: usize) -> usize {
     2 * w * (3 + 2 * r + 2)
 }
 
-/// `u16` elements of the word scratch for a working width `w` and `d` disparities: column
-/// costs (`w d`), the row's aggregated costs (`d`), the right image's winners (`2 w`) and a
-/// ring of 3 disparity rows (`3 w`).
+/// `u16` elements of the word scratch for a working width `w` and `d` disparities, with
+/// `d4` = `d` rounded up to a multiple of 4: the row's costs in disparity order (`d4`),
+/// the right image's winners (`2 w`), a ring of 3 disparity rows (`3 w`), then, on `u32`
+/// words (one element of slack for the alignment), the column costs (`w d4`) and the row's
+/// aggregated costs (`d4`) in the lane layout of [`lane`].
 pub(crate) fn words_len(w: usize, d: usize) -> usize {
-    w * d + d + 5 * w
+    let d4 = 4 * d.div_ceil(4);
+    d4 + 5 * w + (w + 1) * d4 + 1
 }
 
 /// What one band did (sums over bands with [`BandReport::add`]).
@@ -139,11 +143,11 @@ fn out_cost(cap: u8) -> u16 {
 }
 
 #[inline(always)]
-fn absdiff(a: u8, b: u8) -> u16 {
-    u16::from(a.abs_diff(b))
+fn absdiff(a: u8, b: u8) -> u32 {
+    u32::from(a.abs_diff(b))
 }
 
-/// Number of disparities `dmin + j` (`j < dn`) with the right pixel `x - d` inside.
+/// Number of disparities `dmin + j` (`j < dn`) with the right pixel `x - dmin - j` inside.
 #[inline(always)]
 fn inside(x: usize, dmin: usize, dn: usize) -> usize {
     if x < dmin {
@@ -153,21 +157,73 @@ fn inside(x: usize, dmin: usize, dn: usize) -> usize {
     }
 }
 
-/// Adds one filtered row pair's costs to the column sums (`dn` per column).
-fn add_row(colsum: &mut [u16], dn: usize, dmin: usize, l: &[u8], r: &[u8], oc: u16) {
-    for (x, (col, &lp)) in colsum.chunks_exact_mut(dn.max(1)).zip(l).enumerate() {
-        let nv = inside(x, dmin, dn);
-        let (cin, cout) = col.split_at_mut(nv.min(col.len()));
-        if nv > 0 {
-            let hi = x + 1 - dmin;
-            if let Some(rs) = r.get(hi - nv..hi) {
-                for (c, &rp) in cin.iter_mut().zip(rs.iter().rev()) {
-                    *c += absdiff(lp, rp);
+/// Where the column cost of disparity index `j` lies in a column's words: `(word, shift)`.
+///
+/// Indices `4g .. 4g + 4` share words `2g` (index `4g + 3` in the low `u16` lane, `4g + 1`
+/// in the high one) and `2g + 1` (`4g + 2` low, `4g` high): what [`split_u8x4`] makes of
+/// the right pixels `x - dmin - 4g - 3 ..= x - dmin - 4g` loaded as one little-endian word
+/// (lowest address, the largest disparity, in byte 0). Lane bounds: a column cost is at
+/// most `(2r + 1) 2 cap` <= 15 * 126 = 1,890 and an aggregated cost at most
+/// `(2r + 1)^2 2 cap` <= 28,350; adding one more column before removing one stays below
+/// 30,240 < 2^16, and what is removed is part of the sum, so no lane ever carries into or
+/// borrows from the other and plain `u32` adds and subtracts are exact lane by lane.
+#[inline(always)]
+fn lane(j: usize) -> (usize, u32) {
+    let g = 2 * (j / 4);
+    match j % 4 {
+        0 => (g + 1, 16),
+        1 => (g, 16),
+        2 => (g + 1, 0),
+        _ => (g, 0),
+    }
+}
+
+/// Adds `add` to and subtracts `sub` from lane `j` of a column's words (bounds: [`lane`]).
+#[inline(always)]
+fn lane_add_sub(col: &mut [u32], j: usize, add: u32, sub: u32) {
+    let (i, s) = lane(j);
+    if let Some(c) = col.get_mut(i) {
+        *c = *c + (add << s) - (sub << s);
+    }
+}
+
+/// Groups of four disparity indices (of `groups`) whose right pixels `x - dmin - j` all
+/// lie inside the image at column `x`: `4g + 3 <= x - dmin`.
+#[inline(always)]
+fn full_groups(x: usize, dmin: usize, groups: usize) -> usize {
+    if x < dmin + 3 {
+        0
+    } else {
+        ((x - dmin - 3) / 4 + 1).min(groups)
+    }
+}
+
+/// Adds one filtered row pair's costs to the column sums (`gw` words per column, the lane
+/// layout of [`lane`]; a right pixel outside the image costs `oc`).
+fn add_row(colsum: &mut [u32], gw: usize, dmin: usize, l: &[u8], r: &[u8], oc: u16) {
+    let groups = gw / 2;
+    let oc = u32::from(oc);
+    for (x, (col, &lp)) in colsum.chunks_exact_mut(gw.max(1)).zip(l).enumerate() {
+        let full = full_groups(x, dmin, groups);
+        // `hi >= 4 full`: the right pixels of the full groups are `hi - 4 full .. hi`.
+        let hi = (x + 1).saturating_sub(dmin);
+        let l4 = u32::from(lp) * 0x0101_0101;
+        let (fast, _) = col.split_at_mut((2 * full).min(col.len()));
+        if let Some(rs) = r.get(hi.saturating_sub(4 * full)..hi) {
+            for (pair, c) in fast.chunks_exact_mut(2).zip(rs.chunks_exact(4).rev()) {
+                let (e, o) = split_u8x4(absdiff_u8x4(l4, word(c)));
+                if let [pe, po] = pair {
+                    *pe += e;
+                    *po += o;
                 }
             }
         }
-        for c in cout {
-            *c += oc;
+        for j in 4 * full..2 * gw {
+            let v = match hi.checked_sub(j + 1).and_then(|xr| r.get(xr)) {
+                Some(&rp) => absdiff(lp, rp),
+                None => oc,
+            };
+            lane_add_sub(col, j, v, 0);
         }
     }
 }
@@ -176,31 +232,46 @@ fn add_row(colsum: &mut [u16], dn: usize, dmin: usize, l: &[u8], r: &[u8], oc: u
 /// right pixel is outside add and remove the same constant: unchanged.
 #[allow(clippy::too_many_arguments)]
 fn update_rows(
-    colsum: &mut [u16],
-    dn: usize,
+    colsum: &mut [u32],
+    gw: usize,
     dmin: usize,
     ln: &[u8],
     rn: &[u8],
     lo: &[u8],
     ro: &[u8],
 ) {
+    let groups = gw / 2;
     for (x, (col, (&a, &b))) in colsum
-        .chunks_exact_mut(dn.max(1))
+        .chunks_exact_mut(gw.max(1))
         .zip(ln.iter().zip(lo))
         .enumerate()
+        .skip(dmin)
     {
-        let nv = inside(x, dmin, dn);
-        if nv == 0 {
-            continue;
-        }
+        let full = full_groups(x, dmin, groups);
+        // x >= dmin: the right pixel of index j is hi - 1 - j, inside for j < hi.
         let hi = x + 1 - dmin;
-        let (Some(rsn), Some(rso)) = (rn.get(hi - nv..hi), ro.get(hi - nv..hi)) else {
-            continue;
-        };
-        for ((c, &pn), &po) in col.iter_mut().zip(rsn.iter().rev()).zip(rso.iter().rev()) {
-            // The sum holds the outgoing cost: add first, then subtract, never below 0
-            // nor above (2r + 1) 2 cap + 2 cap.
-            *c = *c + absdiff(a, pn) - absdiff(b, po);
+        let (a4, b4) = (u32::from(a) * 0x0101_0101, u32::from(b) * 0x0101_0101);
+        let span = hi.saturating_sub(4 * full)..hi;
+        let (fast, _) = col.split_at_mut((2 * full).min(col.len()));
+        if let (Some(rsn), Some(rso)) = (rn.get(span.clone()), ro.get(span)) {
+            for (pair, (cn, co)) in fast
+                .chunks_exact_mut(2)
+                .zip(rsn.chunks_exact(4).rev().zip(rso.chunks_exact(4).rev()))
+            {
+                let (en, on) = split_u8x4(absdiff_u8x4(a4, word(cn)));
+                let (eo, oo) = split_u8x4(absdiff_u8x4(b4, word(co)));
+                if let [pe, po] = pair {
+                    // Add first, then subtract: exact per lane (bounds: `lane`).
+                    *pe = *pe + en - eo;
+                    *po = *po + on - oo;
+                }
+            }
+        }
+        for j in 4 * full..(2 * gw).min(hi) {
+            let xr = hi - 1 - j;
+            if let (Some(&pn), Some(&po)) = (rn.get(xr), ro.get(xr)) {
+                lane_add_sub(col, j, absdiff(a, pn), absdiff(b, po));
+            }
         }
     }
 }
@@ -209,7 +280,8 @@ fn update_rows(
 struct RowMatch {
     w: usize,
     r: usize,
-    dn: usize,
+    /// Words per column of the column sums.
+    gw: usize,
     dmin: usize,
     /// Row range, as indices into the band's disparities.
     jl: usize,
@@ -219,11 +291,15 @@ struct RowMatch {
     lr: bool,
 }
 
-/// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none).
+/// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none): `aggw`
+/// holds the row's aggregated costs in the lane layout of [`lane`], `nat` the same in
+/// disparity order.
+#[allow(clippy::too_many_arguments)]
 fn match_row(
     m: &RowMatch,
-    colsum: &[u16],
-    agg: &mut [u16],
+    colsum: &[u32],
+    aggw: &mut [u32],
+    nat: &mut [u16],
     rbc: &mut [u16],
     rbd: &mut [u16],
     disp: &mut [u16],
@@ -231,17 +307,16 @@ fn match_row(
 ) {
     disp.fill(0);
     let len = m.jh + 1 - m.jl;
-    let Some(agg) = agg.get_mut(..len) else {
+    // The whole groups of four holding the row's range.
+    let (w0, w1) = (2 * (m.jl / 4), 2 * (m.jh / 4) + 2);
+    let off = m.jl - 4 * (m.jl / 4);
+    let Some(aggw) = aggw.get_mut(..w1 - w0) else {
         return;
     };
-    let col = |x: usize| {
-        colsum
-            .get(x * m.dn + m.jl..x * m.dn + m.jh + 1)
-            .unwrap_or(&[])
-    };
-    agg.fill(0);
+    let col = |x: usize| colsum.get(x * m.gw + w0..x * m.gw + w1).unwrap_or(&[]);
+    aggw.fill(0);
     for x in 0..=2 * m.r {
-        for (a, &c) in agg.iter_mut().zip(col(x)) {
+        for (a, &c) in aggw.iter_mut().zip(col(x)) {
             *a += c;
         }
     }
@@ -253,10 +328,22 @@ fn match_row(
     let (mut edge, mut uniq) = (0u64, 0u64);
     for x in m.r..m.w - m.r {
         if x > m.r {
-            for ((a, &ci), &co) in agg.iter_mut().zip(col(x + m.r)).zip(col(x - m.r - 1)) {
+            // Exact per lane (bounds: `lane`).
+            for ((a, &ci), &co) in aggw.iter_mut().zip(col(x + m.r)).zip(col(x - m.r - 1)) {
                 *a = *a + ci - co;
             }
         }
+        for (n, p) in nat.chunks_exact_mut(4).zip(aggw.chunks_exact(2)) {
+            if let ([n0, n1, n2, n3], [e, o]) = (n, p) {
+                *n0 = (*o >> 16) as u16;
+                *n1 = (*e >> 16) as u16;
+                *n2 = *o as u16;
+                *n3 = *e as u16;
+            }
+        }
+        let Some(agg) = nat.get(off..off + len) else {
+            return;
+        };
         let (mut best, mut bi) = (u16::MAX, 0usize);
         for (i, &c) in agg.iter().enumerate() {
             if c < best {
@@ -498,11 +585,18 @@ pub(crate) fn run(
     if dn > rig.max_disp {
         return Err(StereoError::TooSmall);
     }
-    let (colsum, rest) = words.split_at_mut((w * dn).min(words.len()));
-    let (agg, rest) = rest.split_at_mut(dn.min(rest.len()));
+    // Words per column: `dn` rounded up to groups of four lanes, two lanes per word.
+    let gw = 2 * dn.div_ceil(4);
+    let (nat, rest) = words.split_at_mut((2 * gw).min(words.len()));
     let (rbc, rest) = rest.split_at_mut(w.min(rest.len()));
     let (rbd, rest) = rest.split_at_mut(w.min(rest.len()));
-    let (disp, _) = rest.split_at_mut((3 * w).min(rest.len()));
+    let (disp, rest) = rest.split_at_mut((3 * w).min(rest.len()));
+    // Safety: `u16` and `u32` are plain integers valid for every bit pattern, and
+    // `align_to_mut` gives the aligned middle part as whole `u32` words (its prefix and
+    // suffix, at most one `u16` each, stay unused: `words_len` has one element of slack).
+    let (_, wide, _) = unsafe { rest.align_to_mut::<u32>() };
+    let (colsum, rest) = wide.split_at_mut((w * gw).min(wide.len()));
+    let (aggw, _) = rest.split_at_mut(gw.min(rest.len()));
     let mut disp_tag = [0usize; 3];
     let oc = out_cost(p.prefilter_cap);
     let ri = r as isize;
@@ -511,7 +605,7 @@ pub(crate) fn run(
     for k in c0 as isize - ri..=c0 as isize + ri {
         let s = rings.ensure(frames, k);
         let (l, rr) = rings.rows(s);
-        add_row(colsum, dn, dmin, l, rr, oc);
+        add_row(colsum, gw, dmin, l, rr, oc);
     }
     rep.cost_updates += ((2 * r + 1) * w * dn) as u64 / 2;
     let area = ((2 * r + 1) * (2 * r + 1)) as u32;
@@ -521,14 +615,14 @@ pub(crate) fn run(
             let sn = rings.ensure(frames, y as isize + ri);
             let (lo, ro) = rings.rows(so);
             let (ln, rn) = rings.rows(sn);
-            update_rows(colsum, dn, dmin, ln, rn, lo, ro);
+            update_rows(colsum, gw, dmin, ln, rn, lo, ro);
             rep.cost_updates += (w * dn) as u64;
         }
         if let Some((lo, hi)) = geo.row(y) {
             let m = RowMatch {
                 w,
                 r,
-                dn,
+                gw,
                 dmin,
                 jl: lo.saturating_sub(dmin),
                 jh: hi.saturating_sub(dmin).min(dn - 1),
@@ -537,7 +631,7 @@ pub(crate) fn run(
                 lr: p.lr_check,
             };
             if let Some(drow) = disp.get_mut((y % 3) * w..(y % 3) * w + w) {
-                match_row(&m, colsum, agg, rbc, rbd, drow, &mut rep);
+                match_row(&m, colsum, aggw, nat, rbc, rbd, drow, &mut rep);
                 if let Some(t) = disp_tag.get_mut(y % 3) {
                     *t = y + 1;
                 }

@@ -39,6 +39,9 @@
 mod band;
 pub mod geometry;
 mod prefilter;
+#[cfg(test)]
+mod reference;
+mod swar;
 
 pub use band::BandReport;
 pub use prefilter::{downsample_row, prefilter};
