@@ -9,6 +9,8 @@ use crate::reproject::{classify_frame, FrameStatus};
 
 const ONE_Q: u16 = 1 << DISPARITY_FRAC_BITS;
 const RING_MAX: usize = 2 * MAX_RADIUS as usize + 2;
+/// A right pixel's winner key before any candidate (largest cost, no index).
+const RB_NONE: u32 = u32::MAX;
 
 /// Bytes of the byte scratch for a working width `w` and radius `r`: per image a ring of 3
 /// reduced rows and a ring of `2r + 2` filtered rows.
@@ -17,10 +19,10 @@ pub(crate) fn bytes_len(w: usize, r: usize) -> usize {
 }
 
 /// `u16` elements of the word scratch for a working width `w` and `d` disparities, with
-/// `d4` = `d` rounded up to a multiple of 4: the row's costs in disparity order (`d4`),
-/// the right image's winners (`2 w`), a ring of 3 disparity rows (`3 w`), then, on `u32`
-/// words (one element of slack for the alignment), the column costs (`w d4`) and the row's
-/// aggregated costs (`d4`) in the lane layout of [`lane`].
+/// `d4` = `d` rounded up to a multiple of 4: the row's costs in disparity order (`d4`), a
+/// ring of 3 disparity rows (`3 w`), then, on `u32` words (one element of slack for the
+/// alignment), the column costs (`w d4`) and the row's aggregated costs (`d4`) in the lane
+/// layout of [`lane`], and the right image's winners (`w` words, `2 w`).
 pub(crate) fn words_len(w: usize, d: usize) -> usize {
     let d4 = 4 * d.div_ceil(4);
     d4 + 5 * w + (w + 1) * d4 + 1
@@ -293,15 +295,21 @@ struct RowMatch {
 
 /// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none): `aggw`
 /// holds the row's aggregated costs in the lane layout of [`lane`], `nat` the same in
-/// disparity order.
+/// disparity order, `rb` the right image's winners.
+///
+/// Costs and indices travel as one key `cost << 16 | j` (`j` < 2^16: the row's index,
+/// at most the working width, which [`StereoRig::new`] keeps below 2^15): the smallest
+/// key is the smallest cost at its first index, what a scan in index order keeping strict
+/// improvements finds. A right pixel sees its candidates in increasing disparity, so
+/// keeping the smallest key per right pixel (`rb`, [`RB_NONE`] before any) is also the
+/// first of its smallest costs.
 #[allow(clippy::too_many_arguments)]
 fn match_row(
     m: &RowMatch,
     colsum: &[u32],
     aggw: &mut [u32],
     nat: &mut [u16],
-    rbc: &mut [u16],
-    rbd: &mut [u16],
+    rb: &mut [u32],
     disp: &mut [u16],
     rep: &mut BandReport,
 ) {
@@ -309,7 +317,7 @@ fn match_row(
     let len = m.jh + 1 - m.jl;
     // The whole groups of four holding the row's range.
     let (w0, w1) = (2 * (m.jl / 4), 2 * (m.jh / 4) + 2);
-    let off = m.jl - 4 * (m.jl / 4);
+    let first = m.jl - 4 * (m.jl / 4);
     let Some(aggw) = aggw.get_mut(..w1 - w0) else {
         return;
     };
@@ -321,8 +329,7 @@ fn match_row(
         }
     }
     if m.lr {
-        rbc.fill(u16::MAX);
-        rbd.fill(0);
+        rb.fill(RB_NONE);
     }
     let d0 = m.dmin + m.jl;
     let (mut edge, mut uniq) = (0u64, 0u64);
@@ -341,51 +348,41 @@ fn match_row(
                 *n3 = *e as u16;
             }
         }
-        let Some(agg) = nat.get(off..off + len) else {
+        let Some(agg) = nat.get(first..first + len) else {
             return;
         };
-        let (mut best, mut bi) = (u16::MAX, 0usize);
-        for (i, &c) in agg.iter().enumerate() {
-            if c < best {
-                best = c;
-                bi = i;
-            }
+        // The right pixel x - d0 - j sees cost j at its own disparity d0 + j: for the
+        // first `n` indices it lies inside the image (the last of `rb`'s window first).
+        let n = if m.lr { inside(x, d0, len) } else { 0 };
+        let hi = (x + 1).saturating_sub(d0);
+        let right = rb.get_mut(hi.saturating_sub(n)..hi).unwrap_or(&mut []);
+        let (with_lr, rest) = agg.split_at(right.len().min(agg.len()));
+        let mut best = u32::MAX;
+        let mut key = 0u32;
+        for (&a, slot) in with_lr.iter().zip(right.iter_mut().rev()) {
+            let k = u32::from(a) << 16 | key;
+            best = best.min(k);
+            *slot = (*slot).min(k);
+            key += 1;
         }
-        if m.lr {
-            // The right pixel x - d sees this cost at its own disparity d.
-            let n = inside(x, d0, len);
-            let hi = (x + 1).saturating_sub(d0);
-            if let (true, Some(bc), Some(bd)) = (
-                n > 0,
-                rbc.get_mut(hi.saturating_sub(n)..hi),
-                rbd.get_mut(hi.saturating_sub(n)..hi),
-            ) {
-                let ds = (d0..d0 + n).map(|d| d as u16);
-                for (((c, cd), &a), d) in bc
-                    .iter_mut()
-                    .rev()
-                    .zip(bd.iter_mut().rev())
-                    .zip(agg.iter())
-                    .zip(ds)
-                {
-                    if a < *c {
-                        *c = a;
-                        *cd = d;
-                    }
-                }
-            }
+        for &a in rest {
+            best = best.min(u32::from(a) << 16 | key);
+            key += 1;
         }
+        let bi = (best & 0xffff) as usize;
+        let best = (best >> 16) as u16;
         let d = d0 + bi;
         if bi == 0 || bi + 1 >= len || x < d + m.r {
             edge += 1;
             continue;
         }
-        let mut second = u16::MAX;
-        for (i, &c) in agg.iter().enumerate() {
-            if (i + 1 < bi || i > bi + 1) && c < second {
-                second = c;
-            }
-        }
+        // The runner-up more than one index away (bi >= 1 here).
+        let second = agg
+            .get(..bi - 1)
+            .into_iter()
+            .chain(agg.get(bi + 2..))
+            .flatten()
+            .fold(u16::MAX, |s, &c| s.min(c));
         if second != u16::MAX {
             let (b, s) = (u32::from(best), u32::from(second));
             if s * (100 - m.uniq) < b * 100 || s < b + m.gap {
@@ -396,13 +393,13 @@ fn match_row(
         let (Some(&l), Some(&r)) = (agg.get(bi - 1), agg.get(bi + 1)) else {
             continue;
         };
-        let off = parabola_min_offset(
+        let frac = parabola_min_offset(
             i32::from(l),
             i32::from(best),
             i32::from(r),
             i32::from(ONE_Q),
         );
-        let q = (d as i32 * i32::from(ONE_Q) + off).max(1);
+        let q = (d as i32 * i32::from(ONE_Q) + frac).max(1);
         if let Some(o) = disp.get_mut(x) {
             *o = q.min(i32::from(u16::MAX)) as u16;
         }
@@ -417,10 +414,15 @@ fn match_row(
                 continue;
             }
             let dl = usize::from((*o + ONE_Q / 2) >> DISPARITY_FRAC_BITS);
+            // A right pixel no candidate reached has disparity 0.
+            let dr = |k: u32| match k & 0xffff {
+                0xffff => 0,
+                j => d0 + j as usize,
+            };
             let ok = x
                 .checked_sub(dl)
-                .and_then(|xr| rbd.get(xr))
-                .is_some_and(|&dr| usize::from(dr).abs_diff(dl) <= 1);
+                .and_then(|xr| rb.get(xr))
+                .is_some_and(|&k| dr(k).abs_diff(dl) <= 1);
             if !ok {
                 *o = 0;
                 lr += 1;
@@ -588,15 +590,14 @@ pub(crate) fn run(
     // Words per column: `dn` rounded up to groups of four lanes, two lanes per word.
     let gw = 2 * dn.div_ceil(4);
     let (nat, rest) = words.split_at_mut((2 * gw).min(words.len()));
-    let (rbc, rest) = rest.split_at_mut(w.min(rest.len()));
-    let (rbd, rest) = rest.split_at_mut(w.min(rest.len()));
     let (disp, rest) = rest.split_at_mut((3 * w).min(rest.len()));
     // Safety: `u16` and `u32` are plain integers valid for every bit pattern, and
     // `align_to_mut` gives the aligned middle part as whole `u32` words (its prefix and
     // suffix, at most one `u16` each, stay unused: `words_len` has one element of slack).
     let (_, wide, _) = unsafe { rest.align_to_mut::<u32>() };
     let (colsum, rest) = wide.split_at_mut((w * gw).min(wide.len()));
-    let (aggw, _) = rest.split_at_mut(gw.min(rest.len()));
+    let (aggw, rest) = rest.split_at_mut(gw.min(rest.len()));
+    let (rb, _) = rest.split_at_mut(w.min(rest.len()));
     let mut disp_tag = [0usize; 3];
     let oc = out_cost(p.prefilter_cap);
     let ri = r as isize;
@@ -631,7 +632,7 @@ pub(crate) fn run(
                 lr: p.lr_check,
             };
             if let Some(drow) = disp.get_mut((y % 3) * w..(y % 3) * w + w) {
-                match_row(&m, colsum, aggw, nat, rbc, rbd, drow, &mut rep);
+                match_row(&m, colsum, aggw, nat, rb, drow, &mut rep);
                 if let Some(t) = disp_tag.get_mut(y % 3) {
                     *t = y + 1;
                 }
