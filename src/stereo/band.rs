@@ -243,10 +243,41 @@ fn update_rows(
     ro: &[u8],
 ) {
     let groups = gw / 2;
+    let lanes = 2 * gw;
+    // From column `x_full` on every group's right pixels lie inside the image: the right
+    // pixels of column `x_full + i` are `i .. i + lanes` (`hi - 4 full .. hi` below).
+    let x_full = dmin + lanes.max(1) - 1;
+    if let (Some(cs), Some(lf), Some(of)) = (
+        colsum.get_mut(x_full * gw..),
+        ln.get(x_full..),
+        lo.get(x_full..),
+    ) {
+        for ((col, (&a, &b)), (wn, wo)) in cs
+            .chunks_exact_mut(gw.max(1))
+            .zip(lf.iter().zip(of))
+            .zip(rn.windows(lanes.max(1)).zip(ro.windows(lanes.max(1))))
+        {
+            let (a4, b4) = (u32::from(a) * 0x0101_0101, u32::from(b) * 0x0101_0101);
+            for (pair, (cn, co)) in col
+                .chunks_exact_mut(2)
+                .zip(wn.chunks_exact(4).rev().zip(wo.chunks_exact(4).rev()))
+            {
+                let (en, on) = split_u8x4(absdiff_u8x4(a4, word(cn)));
+                let (eo, oo) = split_u8x4(absdiff_u8x4(b4, word(co)));
+                if let [pe, po] = pair {
+                    // Add first, then subtract: exact per lane (bounds: `lane`).
+                    *pe = *pe + en - eo;
+                    *po = *po + on - oo;
+                }
+            }
+        }
+    }
+    // Columns `dmin .. x_full`: some groups partly outside.
     for (x, (col, (&a, &b))) in colsum
         .chunks_exact_mut(gw.max(1))
         .zip(ln.iter().zip(lo))
         .enumerate()
+        .take(x_full)
         .skip(dmin)
     {
         let full = full_groups(x, dmin, groups);
@@ -444,18 +475,13 @@ fn finish_row(
     out: &mut [u16],
     rep: &mut BandReport,
 ) {
-    let w = cur.len();
-    let near = |a: u16, b: u16| b != 0 && a.abs_diff(b) <= ONE_Q;
-    let count = |row: Option<&[u16]>, x: usize, d: u16, skip_mid: bool| -> u32 {
-        let Some(row) = row else { return 0 };
-        let lo = x.saturating_sub(1);
-        let hi = (x + 2).min(w);
-        row.get(lo..hi).map_or(0, |s| {
-            s.iter()
-                .enumerate()
-                .filter(|&(i, &v)| !(skip_mid && lo + i == x) && near(d, v))
-                .count() as u32
-        })
+    let near = |a: u16, b: u16| u32::from(b != 0 && a.abs_diff(b) <= ONE_Q);
+    // Neighbours outside the row or the image count as "no data" (0), which is never near.
+    let at = |row: Option<&[u16]>, i: Option<usize>| -> u16 {
+        match (row, i) {
+            (Some(r), Some(i)) => r.get(i).copied().unwrap_or(0),
+            _ => 0,
+        }
     };
     let (mut valid, mut speck) = (0u64, 0u64);
     for (x, (o, &d)) in out.iter_mut().zip(cur).enumerate() {
@@ -464,9 +490,11 @@ fn finish_row(
             continue;
         }
         if support > 0 {
-            let n = count(above, x, d, false)
-                + count(Some(cur), x, d, true)
-                + count(below, x, d, false);
+            let (l, r) = (x.checked_sub(1), Some(x + 1));
+            let mut n = near(d, at(Some(cur), l)) + near(d, at(Some(cur), r));
+            for row in [above, below] {
+                n += near(d, at(row, l)) + near(d, at(row, Some(x))) + near(d, at(row, r));
+            }
             if n < u32::from(support) {
                 speck += 1;
                 continue;
