@@ -383,14 +383,15 @@ fn match_row(
             return;
         };
         // The right pixel x - d0 - j sees cost j at its own disparity d0 + j: for the
-        // first `n` indices it lies inside the image (the last of `rb`'s window first).
+        // first `n` indices it lies inside the image. `rb` holds right pixel `xr` at
+        // `w - 1 - xr`, so index j's is `w - 1 - (x - d0) + j`: both run forward.
         let n = if m.lr { inside(x, d0, len) } else { 0 };
-        let hi = (x + 1).saturating_sub(d0);
-        let right = rb.get_mut(hi.saturating_sub(n)..hi).unwrap_or(&mut []);
+        let t0 = (m.w - 1).saturating_sub(x.saturating_sub(d0));
+        let right = rb.get_mut(t0..t0 + n).unwrap_or(&mut []);
         let (with_lr, rest) = agg.split_at(right.len().min(agg.len()));
         let mut best = u32::MAX;
         let mut key = 0u32;
-        for (&a, slot) in with_lr.iter().zip(right.iter_mut().rev()) {
+        for (&a, slot) in with_lr.iter().zip(right.iter_mut()) {
             let k = u32::from(a) << 16 | key;
             best = best.min(k);
             *slot = (*slot).min(k);
@@ -408,12 +409,9 @@ fn match_row(
             continue;
         }
         // The runner-up more than one index away (bi >= 1 here).
-        let second = agg
-            .get(..bi - 1)
-            .into_iter()
-            .chain(agg.get(bi + 2..))
-            .flatten()
-            .fold(u16::MAX, |s, &c| s.min(c));
+        let lo_min = agg.get(..bi - 1).map_or(u16::MAX, |s| min_of(s));
+        let hi_min = agg.get(bi + 2..).map_or(u16::MAX, |s| min_of(s));
+        let second = lo_min.min(hi_min);
         if second != u16::MAX {
             let (b, s) = (u32::from(best), u32::from(second));
             if s * (100 - m.uniq) < b * 100 || s < b + m.gap {
@@ -452,7 +450,7 @@ fn match_row(
             };
             let ok = x
                 .checked_sub(dl)
-                .and_then(|xr| rb.get(xr))
+                .and_then(|xr| rb.get(m.w - 1 - xr))
                 .is_some_and(|&k| dr(k).abs_diff(dl) <= 1);
             if !ok {
                 *o = 0;
@@ -461,6 +459,12 @@ fn match_row(
         }
         rep.rejected_lr += lr;
     }
+}
+
+/// The smallest of `s` (`u16::MAX` when empty).
+#[inline(always)]
+fn min_of(s: &[u16]) -> u16 {
+    s.iter().fold(u16::MAX, |m, &c| m.min(c))
 }
 
 /// Speckle filter and output of row `q` from the disparity rows above, at and below.
