@@ -1,7 +1,7 @@
 //! The band matcher: running-sum SAD block matching of rows `y0..y1` (see the module docs
 //! of [`super`] for the pipeline).
 
-use super::swar::{absdiff_u8x4, split_u8x4, word};
+use super::swar::{absdiff_u8x4, min_u16x2, pair, set_pair, split_u8x4, word};
 use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
 use crate::image::ImageView;
 use crate::peak::parabola_min_offset;
@@ -9,8 +9,8 @@ use crate::reproject::{classify_frame, FrameStatus};
 
 const ONE_Q: u16 = 1 << DISPARITY_FRAC_BITS;
 const RING_MAX: usize = 2 * MAX_RADIUS as usize + 2;
-/// A right pixel's winner key before any candidate (largest cost, no index).
-const RB_NONE: u32 = u32::MAX;
+/// A right pixel's winner index before any candidate.
+const RB_NONE: u16 = u16::MAX;
 
 /// Bytes of the byte scratch for a working width `w` and radius `r`: per image a ring of 3
 /// reduced rows and a ring of `2r + 2` filtered rows.
@@ -19,10 +19,10 @@ pub(crate) fn bytes_len(w: usize, r: usize) -> usize {
 }
 
 /// `u16` elements of the word scratch for a working width `w` and `d` disparities, with
-/// `d4` = `d` rounded up to a multiple of 4: the row's costs in disparity order (`d4`), a
-/// ring of 3 disparity rows (`3 w`), then, on `u32` words (one element of slack for the
-/// alignment), the column costs (`w d4`) and the row's aggregated costs (`d4`) in the lane
-/// layout of [`lane`], and the right image's winners (`w` words, `2 w`).
+/// `d4` = `d` rounded up to a multiple of 4: the right image's winners (cost and index,
+/// `2 w`), a ring of 3 disparity rows (`3 w`), then, on `u32` words (one element of slack
+/// for the alignment), the column costs (`w d4`) and the row's aggregated costs (`d4`) in
+/// the lane layout of [`lane`], and the same in disparity order (`d4`).
 pub(crate) fn words_len(w: usize, d: usize) -> usize {
     let d4 = 4 * d.div_ceil(4);
     d4 + 5 * w + (w + 1) * d4 + 1
@@ -325,22 +325,25 @@ struct RowMatch {
 }
 
 /// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none): `aggw`
-/// holds the row's aggregated costs in the lane layout of [`lane`], `nat` the same in
-/// disparity order, `rb` the right image's winners.
+/// holds the row's aggregated costs in the lane layout of [`lane`], `natw` the same in
+/// disparity order (two per word, the lower index in the low lane), `rbc` and `rbd` the
+/// right image's winners (cost and index, right pixel `xr` at `w - 1 - xr`).
 ///
-/// Costs and indices travel as one key `cost << 16 | j` (`j` < 2^16: the row's index,
-/// at most the working width, which [`StereoRig::new`] keeps below 2^15): the smallest
-/// key is the smallest cost at its first index, what a scan in index order keeping strict
-/// improvements finds. A right pixel sees its candidates in increasing disparity, so
-/// keeping the smallest key per right pixel (`rb`, [`RB_NONE`] before any) is also the
-/// first of its smallest costs.
+/// The winner and the right image's winners are scanned two indices at a time
+/// ([`min_u16x2`]): each lane keeps its first strict minimum, and of the two lanes the
+/// smaller cost, on a tie the smaller index, is the first minimum of the whole range, what
+/// a scan in index order keeping strict improvements finds. A right pixel sees its
+/// candidates in increasing index, so keeping strict improvements per right pixel is the
+/// first of its smallest costs too. Indices are below 2^15 (at most the working width,
+/// [`StereoRig::new`]), so [`RB_NONE`] is never one.
 #[allow(clippy::too_many_arguments)]
 fn match_row(
     m: &RowMatch,
     colsum: &[u32],
     aggw: &mut [u32],
-    nat: &mut [u16],
-    rb: &mut [u32],
+    natw: &mut [u32],
+    rbc: &mut [u16],
+    rbd: &mut [u16],
     disp: &mut [u16],
     rep: &mut BandReport,
 ) {
@@ -349,7 +352,7 @@ fn match_row(
     // The whole groups of four holding the row's range.
     let (w0, w1) = (2 * (m.jl / 4), 2 * (m.jh / 4) + 2);
     let first = m.jl - 4 * (m.jl / 4);
-    let Some(aggw) = aggw.get_mut(..w1 - w0) else {
+    let (Some(aggw), Some(natw)) = (aggw.get_mut(..w1 - w0), natw.get_mut(..w1 - w0)) else {
         return;
     };
     let col = |x: usize| colsum.get(x * m.gw + w0..x * m.gw + w1).unwrap_or(&[]);
@@ -360,7 +363,8 @@ fn match_row(
         }
     }
     if m.lr {
-        rb.fill(RB_NONE);
+        rbc.fill(u16::MAX);
+        rbd.fill(RB_NONE);
     }
     let d0 = m.dmin + m.jl;
     let (mut edge, mut uniq) = (0u64, 0u64);
@@ -371,38 +375,72 @@ fn match_row(
                 *a = *a + ci - co;
             }
         }
-        for (n, p) in nat.chunks_exact_mut(4).zip(aggw.chunks_exact(2)) {
-            if let ([n0, n1, n2, n3], [e, o]) = (n, p) {
-                *n0 = (*o >> 16) as u16;
-                *n1 = (*e >> 16) as u16;
-                *n2 = *o as u16;
-                *n3 = *e as u16;
+        // Group words (4g + 3 | 4g + 1, 4g + 2 | 4g) to (4g | 4g + 1, 4g + 2 | 4g + 3).
+        for (n, p) in natw.chunks_exact_mut(2).zip(aggw.chunks_exact(2)) {
+            if let ([n0, n1], [e, o]) = (n, p) {
+                *n0 = (*e & 0xffff_0000) | (*o >> 16);
+                *n1 = (*o & 0xffff) | (*e << 16);
             }
         }
+        // Safety: `u16` has half the size and alignment of `u32` and every bit pattern is
+        // valid, so the words read as `u16` give no prefix or suffix; the view is dropped
+        // before the words are written again. Little-endian: the low lane comes first.
+        let (_, nat, _) = unsafe { natw.align_to::<u16>() };
         let Some(agg) = nat.get(first..first + len) else {
             return;
         };
         // The right pixel x - d0 - j sees cost j at its own disparity d0 + j: for the
-        // first `n` indices it lies inside the image. `rb` holds right pixel `xr` at
-        // `w - 1 - xr`, so index j's is `w - 1 - (x - d0) + j`: both run forward.
+        // first `n` indices it lies inside the image, at `w - 1 - (x - d0) + j` of `rbc`
+        // and `rbd`: both run forward with the costs.
         let n = if m.lr { inside(x, d0, len) } else { 0 };
         let t0 = (m.w - 1).saturating_sub(x.saturating_sub(d0));
-        let right = rb.get_mut(t0..t0 + n).unwrap_or(&mut []);
-        let (with_lr, rest) = agg.split_at(right.len().min(agg.len()));
-        let mut best = u32::MAX;
-        let mut key = 0u32;
-        for (&a, slot) in with_lr.iter().zip(right.iter_mut()) {
-            let k = u32::from(a) << 16 | key;
-            best = best.min(k);
-            *slot = (*slot).min(k);
-            key += 1;
+        let (rc, rd) = match (rbc.get_mut(t0..t0 + n), rbd.get_mut(t0..t0 + n)) {
+            (Some(c), Some(d)) => (c, d),
+            _ => (&mut [][..], &mut [][..]),
+        };
+        let nlr = rc.len().min(agg.len());
+        let (mut bc, mut bj) = (u32::MAX, u32::MAX);
+        let mut jj = 0x0001_0000u32;
+        for ((ac, cc), dc) in agg
+            .get(..nlr)
+            .unwrap_or(&[])
+            .chunks_exact(2)
+            .zip(rc.chunks_exact_mut(2))
+            .zip(rd.chunks_exact_mut(2))
+        {
+            let a = pair(ac);
+            let (c, d) = min_u16x2(pair(cc), pair(dc), a, jj);
+            set_pair(cc, c);
+            set_pair(dc, d);
+            (bc, bj) = min_u16x2(bc, bj, a, jj);
+            // Two indices further in both lanes (below 2^15: no carry between them).
+            jj += 0x0002_0002;
         }
-        for &a in rest {
-            best = best.min(u32::from(a) << 16 | key);
-            key += 1;
+        // Of the two lanes (even and odd indices), the smaller cost, then the first index.
+        let (lo, hi) = ((bc & 0xffff, bj & 0xffff), (bc >> 16, bj >> 16));
+        let (mut best, mut bi) = if hi.0 < lo.0 || (hi.0 == lo.0 && hi.1 < lo.1) {
+            hi
+        } else {
+            lo
+        };
+        let done = nlr - nlr % 2;
+        for (j, &a) in agg.iter().enumerate().skip(done) {
+            let a = u32::from(a);
+            if a < best {
+                best = a;
+                bi = j as u32;
+            }
+            if j < nlr {
+                if let (Some(c), Some(d)) = (rc.get_mut(j), rd.get_mut(j)) {
+                    if a < u32::from(*c) {
+                        *c = a as u16;
+                        *d = j as u16;
+                    }
+                }
+            }
         }
-        let bi = (best & 0xffff) as usize;
-        let best = (best >> 16) as u16;
+        let best = best as u16;
+        let bi = bi as usize;
         let d = d0 + bi;
         if bi == 0 || bi + 1 >= len || x < d + m.r {
             edge += 1;
@@ -444,14 +482,14 @@ fn match_row(
             }
             let dl = usize::from((*o + ONE_Q / 2) >> DISPARITY_FRAC_BITS);
             // A right pixel no candidate reached has disparity 0.
-            let dr = |k: u32| match k & 0xffff {
-                0xffff => 0,
-                j => d0 + j as usize,
+            let dr = |j: u16| match j {
+                RB_NONE => 0,
+                j => d0 + usize::from(j),
             };
             let ok = x
                 .checked_sub(dl)
-                .and_then(|xr| rb.get(m.w - 1 - xr))
-                .is_some_and(|&k| dr(k).abs_diff(dl) <= 1);
+                .and_then(|xr| rbd.get(m.w - 1 - xr))
+                .is_some_and(|&j| dr(j).abs_diff(dl) <= 1);
             if !ok {
                 *o = 0;
                 lr += 1;
@@ -621,7 +659,8 @@ pub(crate) fn run(
     }
     // Words per column: `dn` rounded up to groups of four lanes, two lanes per word.
     let gw = 2 * dn.div_ceil(4);
-    let (nat, rest) = words.split_at_mut((2 * gw).min(words.len()));
+    let (rbc, rest) = words.split_at_mut(w.min(words.len()));
+    let (rbd, rest) = rest.split_at_mut(w.min(rest.len()));
     let (disp, rest) = rest.split_at_mut((3 * w).min(rest.len()));
     // Safety: `u16` and `u32` are plain integers valid for every bit pattern, and
     // `align_to_mut` gives the aligned middle part as whole `u32` words (its prefix and
@@ -629,7 +668,7 @@ pub(crate) fn run(
     let (_, wide, _) = unsafe { rest.align_to_mut::<u32>() };
     let (colsum, rest) = wide.split_at_mut((w * gw).min(wide.len()));
     let (aggw, rest) = rest.split_at_mut(gw.min(rest.len()));
-    let (rb, _) = rest.split_at_mut(w.min(rest.len()));
+    let (natw, _) = rest.split_at_mut(gw.min(rest.len()));
     let mut disp_tag = [0usize; 3];
     let oc = out_cost(p.prefilter_cap);
     let ri = r as isize;
@@ -664,7 +703,7 @@ pub(crate) fn run(
                 lr: p.lr_check,
             };
             if let Some(drow) = disp.get_mut((y % 3) * w..(y % 3) * w + w) {
-                match_row(&m, colsum, aggw, nat, rb, drow, &mut rep);
+                match_row(&m, colsum, aggw, natw, rbc, rbd, drow, &mut rep);
                 if let Some(t) = disp_tag.get_mut(y % 3) {
                     *t = y + 1;
                 }
