@@ -447,8 +447,8 @@ fn match_row(
             continue;
         }
         // The runner-up more than one index away (bi >= 1 here).
-        let lo_min = agg.get(..bi - 1).map_or(u16::MAX, |s| min_of(s));
-        let hi_min = agg.get(bi + 2..).map_or(u16::MAX, |s| min_of(s));
+        let lo_min = agg.get(..bi - 1).map_or(u16::MAX, min_of);
+        let hi_min = agg.get(bi + 2..).map_or(u16::MAX, min_of);
         let second = lo_min.min(hi_min);
         if second != u16::MAX {
             let (b, s) = (u32::from(best), u32::from(second));
