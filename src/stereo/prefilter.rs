@@ -18,8 +18,18 @@ pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8
             }
         }
         2 => {
+            // The default: one zip over both rows' pixel pairs.
             if let (Some(a), Some(b)) = (row_at(0), row_at(1)) {
-                reduce([a, b], w, out);
+                for (o, (p, q)) in out
+                    .iter_mut()
+                    .zip(a.chunks_exact(2).zip(b.chunks_exact(2)))
+                    .take(w)
+                {
+                    if let ([p0, p1], [q0, q1]) = (p, q) {
+                        let s = u32::from(*p0) + u32::from(*p1) + u32::from(*q0) + u32::from(*q1);
+                        *o = ((s + 2) / 4) as u8;
+                    }
+                }
             }
         }
         3 => {
@@ -75,24 +85,25 @@ pub fn prefilter(above: &[u8], mid: &[u8], below: &[u8], cap: u8, out: &mut [u8]
     if let Some(o) = out.first_mut() {
         *o = edge(0);
     }
-    // Interior columns x = 1 .. w - 1 (w >= 3): the pixels at x - 1 and x + 1 of each row.
-    let inner = w.saturating_sub(2);
-    if let (Some(a0), Some(a2), Some(m0), Some(m2), Some(b0), Some(b2), Some(o)) = (
-        above.get(..inner),
-        above.get(2..w),
-        mid.get(..inner),
-        mid.get(2..w),
-        below.get(..inner),
-        below.get(2..w),
+    // Interior columns x = 1 .. w - 1 (w >= 3): with the column sums
+    // `v(x) = above(x) + 2 mid(x) + below(x)` the Sobel is `v(x + 1) - v(x - 1)`.
+    if let (Some(a), Some(m), Some(b), Some(o)) = (
+        above.get(..w),
+        mid.get(..w),
+        below.get(..w),
         out.get_mut(1..w - 1),
     ) {
-        let left = a0.iter().zip(m0).zip(b0);
-        let right = a2.iter().zip(m2).zip(b2);
-        for (o, (((&al, &ml), &bl), ((&ar, &mr), &br))) in o.iter_mut().zip(left.zip(right)) {
-            let g =
-                i32::from(ar) - i32::from(al) + 2 * (i32::from(mr) - i32::from(ml)) + i32::from(br)
-                    - i32::from(bl);
-            *o = (g.clamp(-cap, cap) + cap) as u8;
+        let mut v = a
+            .iter()
+            .zip(m)
+            .zip(b)
+            .map(|((&a, &m), &b)| i32::from(a) + 2 * i32::from(m) + i32::from(b));
+        if let (Some(mut v0), Some(mut v1)) = (v.next(), v.next()) {
+            for (o, v2) in o.iter_mut().zip(v) {
+                *o = ((v2 - v0).clamp(-cap, cap) + cap) as u8;
+                v0 = v1;
+                v1 = v2;
+            }
         }
     }
     if w >= 2 {
