@@ -202,6 +202,9 @@ fn full_groups(x: usize, dmin: usize, groups: usize) -> usize {
 
 /// Adds one filtered row pair's costs to the column sums (`gw` words per column, the lane
 /// layout of [`lane`]; a right pixel outside the image costs `oc`).
+// A function of its own (called once per row): its loops get the registers to
+// themselves instead of spilling in the band loop.
+#[inline(never)]
 fn add_row(colsum: &mut [u32], gw: usize, dmin: usize, l: &[u8], r: &[u8], oc: u16) {
     let groups = gw / 2;
     let oc = u32::from(oc);
@@ -232,6 +235,9 @@ fn add_row(colsum: &mut [u32], gw: usize, dmin: usize, l: &[u8], r: &[u8], oc: u
 
 /// One row in (`ln`, `rn`), one row out (`lo`, `ro`) of the column sums. Columns whose
 /// right pixel is outside add and remove the same constant: unchanged.
+// A function of its own (called once per row): its loops get the registers to
+// themselves instead of spilling in the band loop.
+#[inline(never)]
 #[allow(clippy::too_many_arguments)]
 fn update_rows(
     colsum: &mut [u32],
@@ -336,6 +342,9 @@ struct RowMatch {
 /// candidates in increasing index, so keeping strict improvements per right pixel is the
 /// first of its smallest costs too. Indices are below 2^15 (at most the working width,
 /// [`StereoRig::new`]), so [`RB_NONE`] is never one.
+// A function of its own (called once per row): its loops get the registers to
+// themselves instead of spilling in the band loop.
+#[inline(never)]
 #[allow(clippy::too_many_arguments)]
 fn match_row(
     m: &RowMatch,
