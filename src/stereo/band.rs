@@ -1,6 +1,7 @@
 //! The band matcher: running-sum SAD block matching of rows `y0..y1` (see the module docs
 //! of [`super`] for the pipeline).
 
+use super::swar::{absdiff_u8x4, min_u16x2, pair, set_pair, split_u8x4, word};
 use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
 use crate::image::ImageView;
 use crate::peak::parabola_min_offset;
@@ -8,6 +9,8 @@ use crate::reproject::{classify_frame, FrameStatus};
 
 const ONE_Q: u16 = 1 << DISPARITY_FRAC_BITS;
 const RING_MAX: usize = 2 * MAX_RADIUS as usize + 2;
+/// A right pixel's winner index before any candidate.
+const RB_NONE: u16 = u16::MAX;
 
 /// Bytes of the byte scratch for a working width `w` and radius `r`: per image a ring of 3
 /// reduced rows and a ring of `2r + 2` filtered rows.
@@ -15,11 +18,14 @@ pub(crate) fn bytes_len(w: usize, r: usize) -> usize {
     2 * w * (3 + 2 * r + 2)
 }
 
-/// `u16` elements of the word scratch for a working width `w` and `d` disparities: column
-/// costs (`w d`), the row's aggregated costs (`d`), the right image's winners (`2 w`) and a
-/// ring of 3 disparity rows (`3 w`).
+/// `u16` elements of the word scratch for a working width `w` and `d` disparities, with
+/// `d4` = `d` rounded up to a multiple of 4: the right image's winners (cost and index,
+/// `2 w`), a ring of 3 disparity rows (`3 w`), then, on `u32` words (one element of slack
+/// for the alignment), the column costs (`w d4`) and the row's aggregated costs (`d4`) in
+/// the lane layout of [`lane`], and the same in disparity order (`d4`).
 pub(crate) fn words_len(w: usize, d: usize) -> usize {
-    w * d + d + 5 * w
+    let d4 = 4 * d.div_ceil(4);
+    d4 + 5 * w + (w + 1) * d4 + 1
 }
 
 /// What one band did (sums over bands with [`BandReport::add`]).
@@ -139,11 +145,11 @@ fn out_cost(cap: u8) -> u16 {
 }
 
 #[inline(always)]
-fn absdiff(a: u8, b: u8) -> u16 {
-    u16::from(a.abs_diff(b))
+fn absdiff(a: u8, b: u8) -> u32 {
+    u32::from(a.abs_diff(b))
 }
 
-/// Number of disparities `dmin + j` (`j < dn`) with the right pixel `x - d` inside.
+/// Number of disparities `dmin + j` (`j < dn`) with the right pixel `x - dmin - j` inside.
 #[inline(always)]
 fn inside(x: usize, dmin: usize, dn: usize) -> usize {
     if x < dmin {
@@ -153,54 +159,158 @@ fn inside(x: usize, dmin: usize, dn: usize) -> usize {
     }
 }
 
-/// Adds one filtered row pair's costs to the column sums (`dn` per column).
-fn add_row(colsum: &mut [u16], dn: usize, dmin: usize, l: &[u8], r: &[u8], oc: u16) {
-    for (x, (col, &lp)) in colsum.chunks_exact_mut(dn.max(1)).zip(l).enumerate() {
-        let nv = inside(x, dmin, dn);
-        let (cin, cout) = col.split_at_mut(nv.min(col.len()));
-        if nv > 0 {
-            let hi = x + 1 - dmin;
-            if let Some(rs) = r.get(hi - nv..hi) {
-                for (c, &rp) in cin.iter_mut().zip(rs.iter().rev()) {
-                    *c += absdiff(lp, rp);
+/// Where the column cost of disparity index `j` lies in a column's words: `(word, shift)`.
+///
+/// Indices `4g .. 4g + 4` share words `2g` (index `4g + 3` in the low `u16` lane, `4g + 1`
+/// in the high one) and `2g + 1` (`4g + 2` low, `4g` high): what [`split_u8x4`] makes of
+/// the right pixels `x - dmin - 4g - 3 ..= x - dmin - 4g` loaded as one little-endian word
+/// (lowest address, the largest disparity, in byte 0). Lane bounds: a column cost is at
+/// most `(2r + 1) 2 cap` <= 15 * 126 = 1,890 and an aggregated cost at most
+/// `(2r + 1)^2 2 cap` <= 28,350; adding one more column before removing one stays below
+/// 30,240 < 2^16, and what is removed is part of the sum, so no lane ever carries into or
+/// borrows from the other and plain `u32` adds and subtracts are exact lane by lane.
+#[inline(always)]
+fn lane(j: usize) -> (usize, u32) {
+    let g = 2 * (j / 4);
+    match j % 4 {
+        0 => (g + 1, 16),
+        1 => (g, 16),
+        2 => (g + 1, 0),
+        _ => (g, 0),
+    }
+}
+
+/// Adds `add` to and subtracts `sub` from lane `j` of a column's words (bounds: [`lane`]).
+#[inline(always)]
+fn lane_add_sub(col: &mut [u32], j: usize, add: u32, sub: u32) {
+    let (i, s) = lane(j);
+    if let Some(c) = col.get_mut(i) {
+        *c = *c + (add << s) - (sub << s);
+    }
+}
+
+/// Groups of four disparity indices (of `groups`) whose right pixels `x - dmin - j` all
+/// lie inside the image at column `x`: `4g + 3 <= x - dmin`.
+#[inline(always)]
+fn full_groups(x: usize, dmin: usize, groups: usize) -> usize {
+    if x < dmin + 3 {
+        0
+    } else {
+        ((x - dmin - 3) / 4 + 1).min(groups)
+    }
+}
+
+/// Adds one filtered row pair's costs to the column sums (`gw` words per column, the lane
+/// layout of [`lane`]; a right pixel outside the image costs `oc`).
+// A function of its own (called once per row): its loops get the registers to
+// themselves instead of spilling in the band loop.
+#[inline(never)]
+fn add_row(colsum: &mut [u32], gw: usize, dmin: usize, l: &[u8], r: &[u8], oc: u16) {
+    let groups = gw / 2;
+    let oc = u32::from(oc);
+    for (x, (col, &lp)) in colsum.chunks_exact_mut(gw.max(1)).zip(l).enumerate() {
+        let full = full_groups(x, dmin, groups);
+        // `hi >= 4 full`: the right pixels of the full groups are `hi - 4 full .. hi`.
+        let hi = (x + 1).saturating_sub(dmin);
+        let l4 = u32::from(lp) * 0x0101_0101;
+        let (fast, _) = col.split_at_mut((2 * full).min(col.len()));
+        if let Some(rs) = r.get(hi.saturating_sub(4 * full)..hi) {
+            for (pair, c) in fast.chunks_exact_mut(2).zip(rs.chunks_exact(4).rev()) {
+                let (e, o) = split_u8x4(absdiff_u8x4(l4, word(c)));
+                if let [pe, po] = pair {
+                    *pe += e;
+                    *po += o;
                 }
             }
         }
-        for c in cout {
-            *c += oc;
+        for j in 4 * full..2 * gw {
+            let v = match hi.checked_sub(j + 1).and_then(|xr| r.get(xr)) {
+                Some(&rp) => absdiff(lp, rp),
+                None => oc,
+            };
+            lane_add_sub(col, j, v, 0);
         }
     }
 }
 
 /// One row in (`ln`, `rn`), one row out (`lo`, `ro`) of the column sums. Columns whose
 /// right pixel is outside add and remove the same constant: unchanged.
+// A function of its own (called once per row): its loops get the registers to
+// themselves instead of spilling in the band loop.
+#[inline(never)]
 #[allow(clippy::too_many_arguments)]
 fn update_rows(
-    colsum: &mut [u16],
-    dn: usize,
+    colsum: &mut [u32],
+    gw: usize,
     dmin: usize,
     ln: &[u8],
     rn: &[u8],
     lo: &[u8],
     ro: &[u8],
 ) {
+    let groups = gw / 2;
+    let lanes = 2 * gw;
+    // From column `x_full` on every group's right pixels lie inside the image: the right
+    // pixels of column `x_full + i` are `i .. i + lanes` (`hi - 4 full .. hi` below).
+    let x_full = dmin + lanes.max(1) - 1;
+    if let (Some(cs), Some(lf), Some(of)) = (
+        colsum.get_mut(x_full * gw..),
+        ln.get(x_full..),
+        lo.get(x_full..),
+    ) {
+        for ((col, (&a, &b)), (wn, wo)) in cs
+            .chunks_exact_mut(gw.max(1))
+            .zip(lf.iter().zip(of))
+            .zip(rn.windows(lanes.max(1)).zip(ro.windows(lanes.max(1))))
+        {
+            let (a4, b4) = (u32::from(a) * 0x0101_0101, u32::from(b) * 0x0101_0101);
+            for (pair, (cn, co)) in col
+                .chunks_exact_mut(2)
+                .zip(wn.chunks_exact(4).rev().zip(wo.chunks_exact(4).rev()))
+            {
+                let (en, on) = split_u8x4(absdiff_u8x4(a4, word(cn)));
+                let (eo, oo) = split_u8x4(absdiff_u8x4(b4, word(co)));
+                if let [pe, po] = pair {
+                    // Add first, then subtract: exact per lane (bounds: `lane`).
+                    *pe = *pe + en - eo;
+                    *po = *po + on - oo;
+                }
+            }
+        }
+    }
+    // Columns `dmin .. x_full`: some groups partly outside.
     for (x, (col, (&a, &b))) in colsum
-        .chunks_exact_mut(dn.max(1))
+        .chunks_exact_mut(gw.max(1))
         .zip(ln.iter().zip(lo))
         .enumerate()
+        .take(x_full)
+        .skip(dmin)
     {
-        let nv = inside(x, dmin, dn);
-        if nv == 0 {
-            continue;
-        }
+        let full = full_groups(x, dmin, groups);
+        // x >= dmin: the right pixel of index j is hi - 1 - j, inside for j < hi.
         let hi = x + 1 - dmin;
-        let (Some(rsn), Some(rso)) = (rn.get(hi - nv..hi), ro.get(hi - nv..hi)) else {
-            continue;
-        };
-        for ((c, &pn), &po) in col.iter_mut().zip(rsn.iter().rev()).zip(rso.iter().rev()) {
-            // The sum holds the outgoing cost: add first, then subtract, never below 0
-            // nor above (2r + 1) 2 cap + 2 cap.
-            *c = *c + absdiff(a, pn) - absdiff(b, po);
+        let (a4, b4) = (u32::from(a) * 0x0101_0101, u32::from(b) * 0x0101_0101);
+        let span = hi.saturating_sub(4 * full)..hi;
+        let (fast, _) = col.split_at_mut((2 * full).min(col.len()));
+        if let (Some(rsn), Some(rso)) = (rn.get(span.clone()), ro.get(span)) {
+            for (pair, (cn, co)) in fast
+                .chunks_exact_mut(2)
+                .zip(rsn.chunks_exact(4).rev().zip(rso.chunks_exact(4).rev()))
+            {
+                let (en, on) = split_u8x4(absdiff_u8x4(a4, word(cn)));
+                let (eo, oo) = split_u8x4(absdiff_u8x4(b4, word(co)));
+                if let [pe, po] = pair {
+                    // Add first, then subtract: exact per lane (bounds: `lane`).
+                    *pe = *pe + en - eo;
+                    *po = *po + on - oo;
+                }
+            }
+        }
+        for j in 4 * full..(2 * gw).min(hi) {
+            let xr = hi - 1 - j;
+            if let (Some(&pn), Some(&po)) = (rn.get(xr), ro.get(xr)) {
+                lane_add_sub(col, j, absdiff(a, pn), absdiff(b, po));
+            }
         }
     }
 }
@@ -209,7 +319,8 @@ fn update_rows(
 struct RowMatch {
     w: usize,
     r: usize,
-    dn: usize,
+    /// Words per column of the column sums.
+    gw: usize,
     dmin: usize,
     /// Row range, as indices into the band's disparities.
     jl: usize,
@@ -219,11 +330,27 @@ struct RowMatch {
     lr: bool,
 }
 
-/// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none).
+/// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none): `aggw`
+/// holds the row's aggregated costs in the lane layout of [`lane`], `natw` the same in
+/// disparity order (two per word, the lower index in the low lane), `rbc` and `rbd` the
+/// right image's winners (cost and index, right pixel `xr` at `w - 1 - xr`).
+///
+/// The winner and the right image's winners are scanned two indices at a time
+/// ([`min_u16x2`]): each lane keeps its first strict minimum, and of the two lanes the
+/// smaller cost, on a tie the smaller index, is the first minimum of the whole range, what
+/// a scan in index order keeping strict improvements finds. A right pixel sees its
+/// candidates in increasing index, so keeping strict improvements per right pixel is the
+/// first of its smallest costs too. Indices are below 2^15 (at most the working width,
+/// [`StereoRig::new`]), so [`RB_NONE`] is never one.
+// A function of its own (called once per row): its loops get the registers to
+// themselves instead of spilling in the band loop.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
 fn match_row(
     m: &RowMatch,
-    colsum: &[u16],
-    agg: &mut [u16],
+    colsum: &[u32],
+    aggw: &mut [u32],
+    natw: &mut [u32],
     rbc: &mut [u16],
     rbd: &mut [u16],
     disp: &mut [u16],
@@ -231,74 +358,107 @@ fn match_row(
 ) {
     disp.fill(0);
     let len = m.jh + 1 - m.jl;
-    let Some(agg) = agg.get_mut(..len) else {
+    // The whole groups of four holding the row's range.
+    let (w0, w1) = (2 * (m.jl / 4), 2 * (m.jh / 4) + 2);
+    let first = m.jl - 4 * (m.jl / 4);
+    let (Some(aggw), Some(natw)) = (aggw.get_mut(..w1 - w0), natw.get_mut(..w1 - w0)) else {
         return;
     };
-    let col = |x: usize| {
-        colsum
-            .get(x * m.dn + m.jl..x * m.dn + m.jh + 1)
-            .unwrap_or(&[])
-    };
-    agg.fill(0);
+    let col = |x: usize| colsum.get(x * m.gw + w0..x * m.gw + w1).unwrap_or(&[]);
+    aggw.fill(0);
     for x in 0..=2 * m.r {
-        for (a, &c) in agg.iter_mut().zip(col(x)) {
+        for (a, &c) in aggw.iter_mut().zip(col(x)) {
             *a += c;
         }
     }
     if m.lr {
         rbc.fill(u16::MAX);
-        rbd.fill(0);
+        rbd.fill(RB_NONE);
     }
     let d0 = m.dmin + m.jl;
     let (mut edge, mut uniq) = (0u64, 0u64);
     for x in m.r..m.w - m.r {
         if x > m.r {
-            for ((a, &ci), &co) in agg.iter_mut().zip(col(x + m.r)).zip(col(x - m.r - 1)) {
+            // Exact per lane (bounds: `lane`).
+            for ((a, &ci), &co) in aggw.iter_mut().zip(col(x + m.r)).zip(col(x - m.r - 1)) {
                 *a = *a + ci - co;
             }
         }
-        let (mut best, mut bi) = (u16::MAX, 0usize);
-        for (i, &c) in agg.iter().enumerate() {
-            if c < best {
-                best = c;
-                bi = i;
+        // Group words (4g + 3 | 4g + 1, 4g + 2 | 4g) to (4g | 4g + 1, 4g + 2 | 4g + 3).
+        for (n, p) in natw.chunks_exact_mut(2).zip(aggw.chunks_exact(2)) {
+            if let ([n0, n1], [e, o]) = (n, p) {
+                *n0 = (*e & 0xffff_0000) | (*o >> 16);
+                *n1 = (*o & 0xffff) | (*e << 16);
             }
         }
-        if m.lr {
-            // The right pixel x - d sees this cost at its own disparity d.
-            let n = inside(x, d0, len);
-            let hi = (x + 1).saturating_sub(d0);
-            if let (true, Some(bc), Some(bd)) = (
-                n > 0,
-                rbc.get_mut(hi.saturating_sub(n)..hi),
-                rbd.get_mut(hi.saturating_sub(n)..hi),
-            ) {
-                let ds = (d0..d0 + n).map(|d| d as u16);
-                for (((c, cd), &a), d) in bc
-                    .iter_mut()
-                    .rev()
-                    .zip(bd.iter_mut().rev())
-                    .zip(agg.iter())
-                    .zip(ds)
-                {
-                    if a < *c {
-                        *c = a;
-                        *cd = d;
+        // Safety: `u16` has half the size and alignment of `u32` and every bit pattern is
+        // valid, so the words read as `u16` give no prefix or suffix; the view is dropped
+        // before the words are written again. Little-endian: the low lane comes first.
+        let (_, nat, _) = unsafe { natw.align_to::<u16>() };
+        let Some(agg) = nat.get(first..first + len) else {
+            return;
+        };
+        // The right pixel x - d0 - j sees cost j at its own disparity d0 + j: for the
+        // first `n` indices it lies inside the image, at `w - 1 - (x - d0) + j` of `rbc`
+        // and `rbd`: both run forward with the costs.
+        let n = if m.lr { inside(x, d0, len) } else { 0 };
+        let t0 = (m.w - 1).saturating_sub(x.saturating_sub(d0));
+        let (rc, rd) = match (rbc.get_mut(t0..t0 + n), rbd.get_mut(t0..t0 + n)) {
+            (Some(c), Some(d)) => (c, d),
+            _ => (&mut [][..], &mut [][..]),
+        };
+        let nlr = rc.len().min(agg.len());
+        let (mut bc, mut bj) = (u32::MAX, u32::MAX);
+        let mut jj = 0x0001_0000u32;
+        for ((ac, cc), dc) in agg
+            .get(..nlr)
+            .unwrap_or(&[])
+            .chunks_exact(2)
+            .zip(rc.chunks_exact_mut(2))
+            .zip(rd.chunks_exact_mut(2))
+        {
+            let a = pair(ac);
+            let (c, d) = min_u16x2(pair(cc), pair(dc), a, jj);
+            set_pair(cc, c);
+            set_pair(dc, d);
+            (bc, bj) = min_u16x2(bc, bj, a, jj);
+            // Two indices further in both lanes (below 2^15: no carry between them).
+            jj += 0x0002_0002;
+        }
+        // Of the two lanes (even and odd indices), the smaller cost, then the first index.
+        let (lo, hi) = ((bc & 0xffff, bj & 0xffff), (bc >> 16, bj >> 16));
+        let (mut best, mut bi) = if hi.0 < lo.0 || (hi.0 == lo.0 && hi.1 < lo.1) {
+            hi
+        } else {
+            lo
+        };
+        let done = nlr - nlr % 2;
+        for (j, &a) in agg.iter().enumerate().skip(done) {
+            let a = u32::from(a);
+            if a < best {
+                best = a;
+                bi = j as u32;
+            }
+            if j < nlr {
+                if let (Some(c), Some(d)) = (rc.get_mut(j), rd.get_mut(j)) {
+                    if a < u32::from(*c) {
+                        *c = a as u16;
+                        *d = j as u16;
                     }
                 }
             }
         }
+        let best = best as u16;
+        let bi = bi as usize;
         let d = d0 + bi;
         if bi == 0 || bi + 1 >= len || x < d + m.r {
             edge += 1;
             continue;
         }
-        let mut second = u16::MAX;
-        for (i, &c) in agg.iter().enumerate() {
-            if (i + 1 < bi || i > bi + 1) && c < second {
-                second = c;
-            }
-        }
+        // The runner-up more than one index away (bi >= 1 here).
+        let lo_min = agg.get(..bi - 1).map_or(u16::MAX, min_of);
+        let hi_min = agg.get(bi + 2..).map_or(u16::MAX, min_of);
+        let second = lo_min.min(hi_min);
         if second != u16::MAX {
             let (b, s) = (u32::from(best), u32::from(second));
             if s * (100 - m.uniq) < b * 100 || s < b + m.gap {
@@ -309,13 +469,13 @@ fn match_row(
         let (Some(&l), Some(&r)) = (agg.get(bi - 1), agg.get(bi + 1)) else {
             continue;
         };
-        let off = parabola_min_offset(
+        let frac = parabola_min_offset(
             i32::from(l),
             i32::from(best),
             i32::from(r),
             i32::from(ONE_Q),
         );
-        let q = (d as i32 * i32::from(ONE_Q) + off).max(1);
+        let q = (d as i32 * i32::from(ONE_Q) + frac).max(1);
         if let Some(o) = disp.get_mut(x) {
             *o = q.min(i32::from(u16::MAX)) as u16;
         }
@@ -330,10 +490,15 @@ fn match_row(
                 continue;
             }
             let dl = usize::from((*o + ONE_Q / 2) >> DISPARITY_FRAC_BITS);
+            // A right pixel no candidate reached has disparity 0.
+            let dr = |j: u16| match j {
+                RB_NONE => 0,
+                j => d0 + usize::from(j),
+            };
             let ok = x
                 .checked_sub(dl)
-                .and_then(|xr| rbd.get(xr))
-                .is_some_and(|&dr| usize::from(dr).abs_diff(dl) <= 1);
+                .and_then(|xr| rbd.get(m.w - 1 - xr))
+                .is_some_and(|&j| dr(j).abs_diff(dl) <= 1);
             if !ok {
                 *o = 0;
                 lr += 1;
@@ -341,6 +506,12 @@ fn match_row(
         }
         rep.rejected_lr += lr;
     }
+}
+
+/// The smallest of `s` (`u16::MAX` when empty).
+#[inline(always)]
+fn min_of(s: &[u16]) -> u16 {
+    s.iter().fold(u16::MAX, |m, &c| m.min(c))
 }
 
 /// Speckle filter and output of row `q` from the disparity rows above, at and below.
@@ -355,18 +526,13 @@ fn finish_row(
     out: &mut [u16],
     rep: &mut BandReport,
 ) {
-    let w = cur.len();
-    let near = |a: u16, b: u16| b != 0 && a.abs_diff(b) <= ONE_Q;
-    let count = |row: Option<&[u16]>, x: usize, d: u16, skip_mid: bool| -> u32 {
-        let Some(row) = row else { return 0 };
-        let lo = x.saturating_sub(1);
-        let hi = (x + 2).min(w);
-        row.get(lo..hi).map_or(0, |s| {
-            s.iter()
-                .enumerate()
-                .filter(|&(i, &v)| !(skip_mid && lo + i == x) && near(d, v))
-                .count() as u32
-        })
+    let near = |a: u16, b: u16| u32::from(b != 0 && a.abs_diff(b) <= ONE_Q);
+    // Neighbours outside the row or the image count as "no data" (0), which is never near.
+    let at = |row: Option<&[u16]>, i: Option<usize>| -> u16 {
+        match (row, i) {
+            (Some(r), Some(i)) => r.get(i).copied().unwrap_or(0),
+            _ => 0,
+        }
     };
     let (mut valid, mut speck) = (0u64, 0u64);
     for (x, (o, &d)) in out.iter_mut().zip(cur).enumerate() {
@@ -375,9 +541,11 @@ fn finish_row(
             continue;
         }
         if support > 0 {
-            let n = count(above, x, d, false)
-                + count(Some(cur), x, d, true)
-                + count(below, x, d, false);
+            let (l, r) = (x.checked_sub(1), Some(x + 1));
+            let mut n = near(d, at(Some(cur), l)) + near(d, at(Some(cur), r));
+            for row in [above, below] {
+                n += near(d, at(row, l)) + near(d, at(row, Some(x))) + near(d, at(row, r));
+            }
             if n < u32::from(support) {
                 speck += 1;
                 continue;
@@ -498,11 +666,18 @@ pub(crate) fn run(
     if dn > rig.max_disp {
         return Err(StereoError::TooSmall);
     }
-    let (colsum, rest) = words.split_at_mut((w * dn).min(words.len()));
-    let (agg, rest) = rest.split_at_mut(dn.min(rest.len()));
-    let (rbc, rest) = rest.split_at_mut(w.min(rest.len()));
+    // Words per column: `dn` rounded up to groups of four lanes, two lanes per word.
+    let gw = 2 * dn.div_ceil(4);
+    let (rbc, rest) = words.split_at_mut(w.min(words.len()));
     let (rbd, rest) = rest.split_at_mut(w.min(rest.len()));
-    let (disp, _) = rest.split_at_mut((3 * w).min(rest.len()));
+    let (disp, rest) = rest.split_at_mut((3 * w).min(rest.len()));
+    // Safety: `u16` and `u32` are plain integers valid for every bit pattern, and
+    // `align_to_mut` gives the aligned middle part as whole `u32` words (its prefix and
+    // suffix, at most one `u16` each, stay unused: `words_len` has one element of slack).
+    let (_, wide, _) = unsafe { rest.align_to_mut::<u32>() };
+    let (colsum, rest) = wide.split_at_mut((w * gw).min(wide.len()));
+    let (aggw, rest) = rest.split_at_mut(gw.min(rest.len()));
+    let (natw, _) = rest.split_at_mut(gw.min(rest.len()));
     let mut disp_tag = [0usize; 3];
     let oc = out_cost(p.prefilter_cap);
     let ri = r as isize;
@@ -511,7 +686,7 @@ pub(crate) fn run(
     for k in c0 as isize - ri..=c0 as isize + ri {
         let s = rings.ensure(frames, k);
         let (l, rr) = rings.rows(s);
-        add_row(colsum, dn, dmin, l, rr, oc);
+        add_row(colsum, gw, dmin, l, rr, oc);
     }
     rep.cost_updates += ((2 * r + 1) * w * dn) as u64 / 2;
     let area = ((2 * r + 1) * (2 * r + 1)) as u32;
@@ -521,14 +696,14 @@ pub(crate) fn run(
             let sn = rings.ensure(frames, y as isize + ri);
             let (lo, ro) = rings.rows(so);
             let (ln, rn) = rings.rows(sn);
-            update_rows(colsum, dn, dmin, ln, rn, lo, ro);
+            update_rows(colsum, gw, dmin, ln, rn, lo, ro);
             rep.cost_updates += (w * dn) as u64;
         }
         if let Some((lo, hi)) = geo.row(y) {
             let m = RowMatch {
                 w,
                 r,
-                dn,
+                gw,
                 dmin,
                 jl: lo.saturating_sub(dmin),
                 jh: hi.saturating_sub(dmin).min(dn - 1),
@@ -537,7 +712,7 @@ pub(crate) fn run(
                 lr: p.lr_check,
             };
             if let Some(drow) = disp.get_mut((y % 3) * w..(y % 3) * w + w) {
-                match_row(&m, colsum, agg, rbc, rbd, drow, &mut rep);
+                match_row(&m, colsum, aggw, natw, rbc, rbd, drow, &mut rep);
                 if let Some(t) = disp_tag.get_mut(y % 3) {
                     *t = y + 1;
                 }

@@ -39,6 +39,9 @@
 mod band;
 pub mod geometry;
 mod prefilter;
+#[cfg(test)]
+mod reference;
+mod swar;
 
 pub use band::BandReport;
 pub use prefilter::{downsample_row, prefilter};
@@ -375,6 +378,12 @@ impl StereoRig {
         let r = usize::from(p.radius_px);
         if width < 2 * r + 4 || height < 2 * r + 2 {
             return Err(StereoError::TooSmall);
+        }
+        // The matcher keeps disparity indices in 16-bit halves of its keys (`band`).
+        if width > 32_767 {
+            return Err(StereoError::Param(
+                "downsample must reduce the frames to at most 32767 pixels wide",
+            ));
         }
         let geo = geometry::RowRanges::new(camera, p, width, height);
         let max_disp = geo.max_disparities();

@@ -8,32 +8,60 @@ use crate::image::ImageView;
 pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8]) {
     let k = k.clamp(1, 4);
     let w = frame.width().checked_div(k).unwrap_or(0);
-    if k == 1 {
-        if let Some(src) = frame.row(row) {
-            for (o, &s) in out.iter_mut().zip(src).take(w) {
-                *o = s;
+    let row_at = |i: usize| frame.row(row * k + i);
+    match k {
+        1 => {
+            if let Some(src) = row_at(0) {
+                for (o, &s) in out.iter_mut().zip(src).take(w) {
+                    *o = s;
+                }
             }
         }
-        return;
+        2 => {
+            // The default: one zip over both rows' pixel pairs.
+            if let (Some(a), Some(b)) = (row_at(0), row_at(1)) {
+                for (o, (p, q)) in out
+                    .iter_mut()
+                    .zip(a.chunks_exact(2).zip(b.chunks_exact(2)))
+                    .take(w)
+                {
+                    if let ([p0, p1], [q0, q1]) = (p, q) {
+                        let s = u32::from(*p0) + u32::from(*p1) + u32::from(*q0) + u32::from(*q1);
+                        *o = ((s + 2) / 4) as u8;
+                    }
+                }
+            }
+        }
+        3 => {
+            if let (Some(a), Some(b), Some(c)) = (row_at(0), row_at(1), row_at(2)) {
+                reduce([a, b, c], w, out);
+            }
+        }
+        _ => {
+            if let (Some(a), Some(b), Some(c), Some(d)) =
+                (row_at(0), row_at(1), row_at(2), row_at(3))
+            {
+                reduce([a, b, c, d], w, out);
+            }
+        }
     }
-    let area = (k * k) as u32;
-    let rows: [Option<&[u8]>; 4] = [
-        frame.row(row * k),
-        frame.row(row * k + 1),
-        frame.row(row * k + 2),
-        frame.row(row * k + 3),
-    ];
-    if rows.iter().take(k).any(|r| r.is_none()) {
-        return;
-    }
-    for (i, o) in out.iter_mut().enumerate().take(w) {
+}
+
+/// Box average of `K x K` pixels of the `K` source rows (rounded) into the first `w`
+/// pixels of `out` (each row holds at least `w K` pixels: `w` = frame width / `K`).
+#[inline(always)]
+fn reduce<const K: usize>(rows: [&[u8]; K], w: usize, out: &mut [u8]) {
+    let area = (K * K) as u32;
+    let mut blocks = rows.map(|r| r.chunks_exact(K));
+    for o in out.iter_mut().take(w) {
         let mut s = 0u32;
-        for r in rows.iter().take(k).flatten() {
-            if let Some(b) = r.get(i * k..i * k + k) {
-                s += b.iter().map(|&p| u32::from(p)).sum::<u32>();
+        for it in blocks.iter_mut() {
+            if let Some(c) = it.next() {
+                s += c.iter().map(|&p| u32::from(p)).sum::<u32>();
             }
         }
-        *o = (s + area / 2).checked_div(area).unwrap_or(0) as u8;
+        // K is a constant: the division is a multiply and a shift.
+        *o = ((s + area / 2) / area) as u8;
     }
 }
 
@@ -47,12 +75,41 @@ pub fn prefilter(above: &[u8], mid: &[u8], below: &[u8], cap: u8, out: &mut [u8]
     }
     let cap = i32::from(cap);
     let at = |r: &[u8], i: usize| r.get(i).map_or(0, |&p| i32::from(p));
-    for (x, o) in out.iter_mut().enumerate().take(w) {
+    let edge = |x: usize| {
         let xl = x.saturating_sub(1);
         let xr = (x + 1).min(w - 1);
         let g = at(above, xr) - at(above, xl) + 2 * (at(mid, xr) - at(mid, xl)) + at(below, xr)
             - at(below, xl);
-        *o = (g.clamp(-cap, cap) + cap) as u8;
+        (g.clamp(-cap, cap) + cap) as u8
+    };
+    if let Some(o) = out.first_mut() {
+        *o = edge(0);
+    }
+    // Interior columns x = 1 .. w - 1 (w >= 3): with the column sums
+    // `v(x) = above(x) + 2 mid(x) + below(x)` the Sobel is `v(x + 1) - v(x - 1)`.
+    if let (Some(a), Some(m), Some(b), Some(o)) = (
+        above.get(..w),
+        mid.get(..w),
+        below.get(..w),
+        out.get_mut(1..w - 1),
+    ) {
+        let mut v = a
+            .iter()
+            .zip(m)
+            .zip(b)
+            .map(|((&a, &m), &b)| i32::from(a) + 2 * i32::from(m) + i32::from(b));
+        if let (Some(mut v0), Some(mut v1)) = (v.next(), v.next()) {
+            for (o, v2) in o.iter_mut().zip(v) {
+                *o = ((v2 - v0).clamp(-cap, cap) + cap) as u8;
+                v0 = v1;
+                v1 = v2;
+            }
+        }
+    }
+    if w >= 2 {
+        if let Some(o) = out.get_mut(w - 1) {
+            *o = edge(w - 1);
+        }
     }
 }
 
@@ -88,5 +145,88 @@ mod tests {
         let flat = [7u8; 5];
         prefilter(&flat, &flat, &flat, 5, &mut out);
         assert_eq!(out, [5; 5]);
+    }
+    // The plain per-pixel forms these replaced, kept as references.
+    fn downsample_row_ref(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8]) {
+        let k = k.clamp(1, 4);
+        let w = frame.width().checked_div(k).unwrap_or(0);
+        if k == 1 {
+            if let Some(src) = frame.row(row) {
+                for (o, &s) in out.iter_mut().zip(src).take(w) {
+                    *o = s;
+                }
+            }
+            return;
+        }
+        let area = (k * k) as u32;
+        let rows: [Option<&[u8]>; 4] = [
+            frame.row(row * k),
+            frame.row(row * k + 1),
+            frame.row(row * k + 2),
+            frame.row(row * k + 3),
+        ];
+        if rows.iter().take(k).any(|r| r.is_none()) {
+            return;
+        }
+        for (i, o) in out.iter_mut().enumerate().take(w) {
+            let mut s = 0u32;
+            for r in rows.iter().take(k).flatten() {
+                if let Some(b) = r.get(i * k..i * k + k) {
+                    s += b.iter().map(|&p| u32::from(p)).sum::<u32>();
+                }
+            }
+            *o = (s + area / 2).checked_div(area).unwrap_or(0) as u8;
+        }
+    }
+
+    /// Horizontal Sobel of the middle row of three (`above`, `mid`, `below`, equal lengths),
+    /// clipped to `±cap` and offset by `cap` (0..=2 cap) into `out`; the first and last columns
+    /// reuse their inner neighbour (replicated border).
+    fn prefilter_ref(above: &[u8], mid: &[u8], below: &[u8], cap: u8, out: &mut [u8]) {
+        let w = mid.len().min(above.len()).min(below.len()).min(out.len());
+        if w == 0 {
+            return;
+        }
+        let cap = i32::from(cap);
+        let at = |r: &[u8], i: usize| r.get(i).map_or(0, |&p| i32::from(p));
+        for (x, o) in out.iter_mut().enumerate().take(w) {
+            let xl = x.saturating_sub(1);
+            let xr = (x + 1).min(w - 1);
+            let g = at(above, xr) - at(above, xl) + 2 * (at(mid, xr) - at(mid, xl)) + at(below, xr)
+                - at(below, xl);
+            *o = (g.clamp(-cap, cap) + cap) as u8;
+        }
+    }
+
+    #[test]
+    fn equal_to_the_per_pixel_references_on_random_rows() {
+        let mut seed = 7u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 24) as u8
+        };
+        let mut img = [0u8; 37 * 9];
+        for w in [1usize, 2, 3, 4, 5, 8, 13, 37] {
+            let h = 9;
+            for p in img.iter_mut() {
+                *p = next();
+            }
+            let view = ImageView::new(&img[..w * h], w, h).unwrap();
+            for k in 1..=4 {
+                for row in 0..=h / k {
+                    let (mut a, mut b) = ([3u8; 40], [3u8; 40]);
+                    downsample_row(&view, k, row, &mut a);
+                    downsample_row_ref(&view, k, row, &mut b);
+                    assert_eq!(a, b, "w {w} k {k} row {row}");
+                }
+            }
+            for cap in [1u8, 31, 63] {
+                let (r0, r1, r2) = (&img[..w], &img[w..2 * w], &img[2 * w..3 * w]);
+                let (mut a, mut b) = ([5u8; 40], [5u8; 40]);
+                prefilter(r0, r1, r2, cap, &mut a[..w]);
+                prefilter_ref(r0, r1, r2, cap, &mut b[..w]);
+                assert_eq!(a, b, "w {w} cap {cap}");
+            }
+        }
     }
 }

@@ -1,0 +1,749 @@
+//! The band matcher as it was before the column costs moved to four `u8` lanes per word
+//! ([`super::swar`]): plain scalar loops over `u16` column sums, kept only for the tests,
+//! which check that [`super::band::run`] gives exactly its output and counts.
+
+use super::band::{BandReport, Output};
+use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
+use crate::image::ImageView;
+use crate::peak::parabola_min_offset;
+use crate::reproject::{classify_frame, FrameStatus};
+
+const ONE_Q: u16 = 1 << DISPARITY_FRAC_BITS;
+const RING_MAX: usize = 2 * MAX_RADIUS as usize + 2;
+
+/// `u16` elements of the reference's word scratch (column costs `w d`, `d`, `5 w`).
+pub(super) fn words_len(w: usize, d: usize) -> usize {
+    w * d + d + 5 * w
+}
+
+/// Row rings of both images: reduced rows (3) and filtered rows (`2r + 2`), tagged with
+/// `row + 1` (0: empty).
+struct Rings<'b> {
+    ds: [&'b mut [u8]; 2],
+    filt: [&'b mut [u8]; 2],
+    ds_tag: [usize; 3],
+    f_tag: [usize; RING_MAX],
+    w: usize,
+    h: usize,
+    k: usize,
+    ring: usize,
+    cap: u8,
+}
+
+impl Rings<'_> {
+    fn ensure_ds(&mut self, frames: [&ImageView<'_>; 2], q: usize) {
+        let slot = q % 3;
+        if self.ds_tag.get(slot) == Some(&(q + 1)) {
+            return;
+        }
+        let w = self.w;
+        for (buf, fr) in self.ds.iter_mut().zip(frames) {
+            if let Some(o) = buf.get_mut(slot * w..slot * w + w) {
+                super::downsample_row(fr, self.k, q, o);
+            }
+        }
+        if let Some(t) = self.ds_tag.get_mut(slot) {
+            *t = q + 1;
+        }
+    }
+
+    /// Makes filtered row `k` (clamped to the image) present; returns its ring slot.
+    fn ensure(&mut self, frames: [&ImageView<'_>; 2], k: isize) -> usize {
+        let last = self.h - 1;
+        let k = (k.max(0) as usize).min(last);
+        // `checked_rem`: no division-by-zero panic path in the flight build (ring >= 4).
+        let slot = k.checked_rem(self.ring).unwrap_or(0);
+        if self.f_tag.get(slot) == Some(&(k + 1)) {
+            return slot;
+        }
+        let (a, b) = (k.saturating_sub(1), (k + 1).min(last));
+        self.ensure_ds(frames, a);
+        self.ensure_ds(frames, k);
+        self.ensure_ds(frames, b);
+        let w = self.w;
+        for (ds, f) in self.ds.iter().zip(self.filt.iter_mut()) {
+            let row = |q: usize| ds.get((q % 3) * w..(q % 3) * w + w).unwrap_or(&[]);
+            if let Some(o) = f.get_mut(slot * w..slot * w + w) {
+                super::prefilter(row(a), row(k), row(b), self.cap, o);
+            }
+        }
+        if let Some(t) = self.f_tag.get_mut(slot) {
+            *t = k + 1;
+        }
+        slot
+    }
+
+    fn rows(&self, slot: usize) -> (&[u8], &[u8]) {
+        let (a, b) = (slot * self.w, slot * self.w + self.w);
+        let [l, r] = &self.filt;
+        (l.get(a..b).unwrap_or(&[]), r.get(a..b).unwrap_or(&[]))
+    }
+}
+
+/// Cost of a column whose right pixel is outside the image (the largest difference).
+fn out_cost(cap: u8) -> u16 {
+    2 * u16::from(cap)
+}
+
+#[inline(always)]
+fn absdiff(a: u8, b: u8) -> u16 {
+    u16::from(a.abs_diff(b))
+}
+
+/// Number of disparities `dmin + j` (`j < dn`) with the right pixel `x - d` inside.
+#[inline(always)]
+fn inside(x: usize, dmin: usize, dn: usize) -> usize {
+    if x < dmin {
+        0
+    } else {
+        (x - dmin + 1).min(dn)
+    }
+}
+
+/// Adds one filtered row pair's costs to the column sums (`dn` per column).
+fn add_row(colsum: &mut [u16], dn: usize, dmin: usize, l: &[u8], r: &[u8], oc: u16) {
+    for (x, (col, &lp)) in colsum.chunks_exact_mut(dn.max(1)).zip(l).enumerate() {
+        let nv = inside(x, dmin, dn);
+        let (cin, cout) = col.split_at_mut(nv.min(col.len()));
+        if nv > 0 {
+            let hi = x + 1 - dmin;
+            if let Some(rs) = r.get(hi - nv..hi) {
+                for (c, &rp) in cin.iter_mut().zip(rs.iter().rev()) {
+                    *c += absdiff(lp, rp);
+                }
+            }
+        }
+        for c in cout {
+            *c += oc;
+        }
+    }
+}
+
+/// One row in (`ln`, `rn`), one row out (`lo`, `ro`) of the column sums. Columns whose
+/// right pixel is outside add and remove the same constant: unchanged.
+#[allow(clippy::too_many_arguments)]
+fn update_rows(
+    colsum: &mut [u16],
+    dn: usize,
+    dmin: usize,
+    ln: &[u8],
+    rn: &[u8],
+    lo: &[u8],
+    ro: &[u8],
+) {
+    for (x, (col, (&a, &b))) in colsum
+        .chunks_exact_mut(dn.max(1))
+        .zip(ln.iter().zip(lo))
+        .enumerate()
+    {
+        let nv = inside(x, dmin, dn);
+        if nv == 0 {
+            continue;
+        }
+        let hi = x + 1 - dmin;
+        let (Some(rsn), Some(rso)) = (rn.get(hi - nv..hi), ro.get(hi - nv..hi)) else {
+            continue;
+        };
+        for ((c, &pn), &po) in col.iter_mut().zip(rsn.iter().rev()).zip(rso.iter().rev()) {
+            // The sum holds the outgoing cost: add first, then subtract, never below 0
+            // nor above (2r + 1) 2 cap + 2 cap.
+            *c = *c + absdiff(a, pn) - absdiff(b, po);
+        }
+    }
+}
+
+/// Per-row settings of the winner-take-all.
+struct RowMatch {
+    w: usize,
+    r: usize,
+    dn: usize,
+    dmin: usize,
+    /// Row range, as indices into the band's disparities.
+    jl: usize,
+    jh: usize,
+    uniq: u32,
+    gap: u32,
+    lr: bool,
+}
+
+/// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none).
+fn match_row(
+    m: &RowMatch,
+    colsum: &[u16],
+    agg: &mut [u16],
+    rbc: &mut [u16],
+    rbd: &mut [u16],
+    disp: &mut [u16],
+    rep: &mut BandReport,
+) {
+    disp.fill(0);
+    let len = m.jh + 1 - m.jl;
+    let Some(agg) = agg.get_mut(..len) else {
+        return;
+    };
+    let col = |x: usize| {
+        colsum
+            .get(x * m.dn + m.jl..x * m.dn + m.jh + 1)
+            .unwrap_or(&[])
+    };
+    agg.fill(0);
+    for x in 0..=2 * m.r {
+        for (a, &c) in agg.iter_mut().zip(col(x)) {
+            *a += c;
+        }
+    }
+    if m.lr {
+        rbc.fill(u16::MAX);
+        rbd.fill(0);
+    }
+    let d0 = m.dmin + m.jl;
+    let (mut edge, mut uniq) = (0u64, 0u64);
+    for x in m.r..m.w - m.r {
+        if x > m.r {
+            for ((a, &ci), &co) in agg.iter_mut().zip(col(x + m.r)).zip(col(x - m.r - 1)) {
+                *a = *a + ci - co;
+            }
+        }
+        let (mut best, mut bi) = (u16::MAX, 0usize);
+        for (i, &c) in agg.iter().enumerate() {
+            if c < best {
+                best = c;
+                bi = i;
+            }
+        }
+        if m.lr {
+            // The right pixel x - d sees this cost at its own disparity d.
+            let n = inside(x, d0, len);
+            let hi = (x + 1).saturating_sub(d0);
+            if let (true, Some(bc), Some(bd)) = (
+                n > 0,
+                rbc.get_mut(hi.saturating_sub(n)..hi),
+                rbd.get_mut(hi.saturating_sub(n)..hi),
+            ) {
+                let ds = (d0..d0 + n).map(|d| d as u16);
+                for (((c, cd), &a), d) in bc
+                    .iter_mut()
+                    .rev()
+                    .zip(bd.iter_mut().rev())
+                    .zip(agg.iter())
+                    .zip(ds)
+                {
+                    if a < *c {
+                        *c = a;
+                        *cd = d;
+                    }
+                }
+            }
+        }
+        let d = d0 + bi;
+        if bi == 0 || bi + 1 >= len || x < d + m.r {
+            edge += 1;
+            continue;
+        }
+        let mut second = u16::MAX;
+        for (i, &c) in agg.iter().enumerate() {
+            if (i + 1 < bi || i > bi + 1) && c < second {
+                second = c;
+            }
+        }
+        if second != u16::MAX {
+            let (b, s) = (u32::from(best), u32::from(second));
+            if s * (100 - m.uniq) < b * 100 || s < b + m.gap {
+                uniq += 1;
+                continue;
+            }
+        }
+        let (Some(&l), Some(&r)) = (agg.get(bi - 1), agg.get(bi + 1)) else {
+            continue;
+        };
+        let off = parabola_min_offset(
+            i32::from(l),
+            i32::from(best),
+            i32::from(r),
+            i32::from(ONE_Q),
+        );
+        let q = (d as i32 * i32::from(ONE_Q) + off).max(1);
+        if let Some(o) = disp.get_mut(x) {
+            *o = q.min(i32::from(u16::MAX)) as u16;
+        }
+    }
+    rep.pixel_disparities += ((m.w - 2 * m.r) * len) as u64;
+    rep.rejected_edge += edge;
+    rep.rejected_unique += uniq;
+    if m.lr {
+        let mut lr = 0u64;
+        for (x, o) in disp.iter_mut().enumerate() {
+            if *o == 0 {
+                continue;
+            }
+            let dl = usize::from((*o + ONE_Q / 2) >> DISPARITY_FRAC_BITS);
+            let ok = x
+                .checked_sub(dl)
+                .and_then(|xr| rbd.get(xr))
+                .is_some_and(|&dr| usize::from(dr).abs_diff(dl) <= 1);
+            if !ok {
+                *o = 0;
+                lr += 1;
+            }
+        }
+        rep.rejected_lr += lr;
+    }
+}
+
+/// Speckle filter and output of row `q` from the disparity rows above, at and below.
+#[allow(clippy::too_many_arguments)]
+fn finish_row(
+    above: Option<&[u16]>,
+    cur: &[u16],
+    below: Option<&[u16]>,
+    support: u8,
+    mode: Output,
+    depth_k: u32,
+    out: &mut [u16],
+    rep: &mut BandReport,
+) {
+    let w = cur.len();
+    let near = |a: u16, b: u16| b != 0 && a.abs_diff(b) <= ONE_Q;
+    let count = |row: Option<&[u16]>, x: usize, d: u16, skip_mid: bool| -> u32 {
+        let Some(row) = row else { return 0 };
+        let lo = x.saturating_sub(1);
+        let hi = (x + 2).min(w);
+        row.get(lo..hi).map_or(0, |s| {
+            s.iter()
+                .enumerate()
+                .filter(|&(i, &v)| !(skip_mid && lo + i == x) && near(d, v))
+                .count() as u32
+        })
+    };
+    let (mut valid, mut speck) = (0u64, 0u64);
+    for (x, (o, &d)) in out.iter_mut().zip(cur).enumerate() {
+        *o = 0;
+        if d == 0 {
+            continue;
+        }
+        if support > 0 {
+            let n = count(above, x, d, false)
+                + count(Some(cur), x, d, true)
+                + count(below, x, d, false);
+            if n < u32::from(support) {
+                speck += 1;
+                continue;
+            }
+        }
+        let v = match mode {
+            Output::DisparityQ4 => d,
+            Output::DepthMm => {
+                let z = (depth_k + u32::from(d) / 2)
+                    .checked_div(u32::from(d))
+                    .unwrap_or(0);
+                if z == 0 || z > u32::from(u16::MAX) {
+                    continue;
+                }
+                z as u16
+            }
+        };
+        *o = v;
+        valid += 1;
+    }
+    rep.valid += valid;
+    rep.rejected_speckle += speck;
+}
+
+/// Checks the inputs of a band; returns the two frames.
+fn check_inputs<'f, 'a>(
+    rig: &StereoRig,
+    left: &'f ImageView<'a>,
+    right: Option<&'f ImageView<'a>>,
+) -> Result<[&'f ImageView<'a>; 2], StereoError> {
+    let right = right.ok_or(StereoError::MissingRight)?;
+    let ls = (left.width(), left.height());
+    let rs = (right.width(), right.height());
+    if ls != rs {
+        return Err(StereoError::PairSize {
+            left: ls,
+            right: rs,
+        });
+    }
+    let expected = (rig.camera.width_px as usize, rig.camera.height_px as usize);
+    if ls != expected {
+        return Err(StereoError::FrameSize { expected, got: ls });
+    }
+    for (side, f) in [(Side::Left, left), (Side::Right, right)] {
+        let status = classify_frame(f);
+        if status != FrameStatus::Ok {
+            return Err(StereoError::Frame { side, status });
+        }
+    }
+    Ok([left, right])
+}
+
+/// Rows `y0..y1` of the working-size output into `out` (`(y1 - y0) * width`, row-major).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn run(
+    rig: &StereoRig,
+    left: &ImageView<'_>,
+    right: Option<&ImageView<'_>>,
+    y0: usize,
+    y1: usize,
+    bytes: &mut [u8],
+    words: &mut [u16],
+    out: &mut [u16],
+    mode: Output,
+) -> Result<BandReport, StereoError> {
+    let frames = check_inputs(rig, left, right)?;
+    let (w, h) = (rig.width, rig.height);
+    if y0 >= y1 || y1 > h {
+        return Err(StereoError::Rows { y0, y1, height: h });
+    }
+    let sizes = rig.buffer_sizes();
+    for (buffer, needed, got) in [
+        (StereoBuffer::Bytes, sizes.bytes, bytes.len()),
+        (
+            StereoBuffer::Words,
+            words_len(w, sizes.max_disparities),
+            words.len(),
+        ),
+        (StereoBuffer::Output, (y1 - y0) * w, out.len()),
+    ] {
+        if got < needed {
+            return Err(StereoError::BufferSize {
+                buffer,
+                needed,
+                got,
+            });
+        }
+    }
+    let p = &rig.params;
+    let r = usize::from(p.radius_px);
+    let ring = 2 * r + 2;
+    // Lengths were checked above; `min` keeps the splits free of panic paths.
+    let (ds_l, rest) = bytes.split_at_mut((3 * w).min(bytes.len()));
+    let (ds_r, rest) = rest.split_at_mut((3 * w).min(rest.len()));
+    let (f_l, rest) = rest.split_at_mut((ring * w).min(rest.len()));
+    let (f_r, _) = rest.split_at_mut((ring * w).min(rest.len()));
+    let mut rings = Rings {
+        ds: [ds_l, ds_r],
+        filt: [f_l, f_r],
+        ds_tag: [0; 3],
+        f_tag: [0; RING_MAX],
+        w,
+        h,
+        k: usize::from(p.downsample),
+        ring,
+        cap: p.prefilter_cap,
+    };
+    let out = out.get_mut(..(y1 - y0) * w).unwrap_or(&mut []);
+    out.fill(0);
+    let mut rep = BandReport::default();
+
+    let geo = &rig.geo;
+    let c0 = y0.saturating_sub(1).max(geo.first_active());
+    let c1 = (y1 + 1).min(h);
+    if c0 >= c1 {
+        return Ok(rep);
+    }
+    let Some((dmin, dmax)) = geo.union(c0, c1) else {
+        return Ok(rep);
+    };
+    let dn = dmax + 1 - dmin;
+    if dn > rig.max_disp {
+        return Err(StereoError::TooSmall);
+    }
+    let (colsum, rest) = words.split_at_mut((w * dn).min(words.len()));
+    let (agg, rest) = rest.split_at_mut(dn.min(rest.len()));
+    let (rbc, rest) = rest.split_at_mut(w.min(rest.len()));
+    let (rbd, rest) = rest.split_at_mut(w.min(rest.len()));
+    let (disp, _) = rest.split_at_mut((3 * w).min(rest.len()));
+    let mut disp_tag = [0usize; 3];
+    let oc = out_cost(p.prefilter_cap);
+    let ri = r as isize;
+
+    colsum.fill(0);
+    for k in c0 as isize - ri..=c0 as isize + ri {
+        let s = rings.ensure(frames, k);
+        let (l, rr) = rings.rows(s);
+        add_row(colsum, dn, dmin, l, rr, oc);
+    }
+    rep.cost_updates += ((2 * r + 1) * w * dn) as u64 / 2;
+    let area = ((2 * r + 1) * (2 * r + 1)) as u32;
+    for y in c0..c1 {
+        if y > c0 {
+            let so = rings.ensure(frames, y as isize - ri - 1);
+            let sn = rings.ensure(frames, y as isize + ri);
+            let (lo, ro) = rings.rows(so);
+            let (ln, rn) = rings.rows(sn);
+            update_rows(colsum, dn, dmin, ln, rn, lo, ro);
+            rep.cost_updates += (w * dn) as u64;
+        }
+        if let Some((lo, hi)) = geo.row(y) {
+            let m = RowMatch {
+                w,
+                r,
+                dn,
+                dmin,
+                jl: lo.saturating_sub(dmin),
+                jh: hi.saturating_sub(dmin).min(dn - 1),
+                uniq: u32::from(p.uniqueness_pct),
+                gap: area * u32::from(p.min_gap_per_px),
+                lr: p.lr_check,
+            };
+            if let Some(drow) = disp.get_mut((y % 3) * w..(y % 3) * w + w) {
+                match_row(&m, colsum, agg, rbc, rbd, drow, &mut rep);
+                if let Some(t) = disp_tag.get_mut(y % 3) {
+                    *t = y + 1;
+                }
+                rep.rows_matched += 1;
+            }
+        }
+        if y >= 1 && (y0..y1).contains(&(y - 1)) {
+            finish(
+                &disp_tag,
+                disp,
+                w,
+                y - 1,
+                y0,
+                p.min_support,
+                mode,
+                rig.depth_k,
+                out,
+                &mut rep,
+            );
+        }
+    }
+    if (y0..y1).contains(&(c1 - 1)) {
+        finish(
+            &disp_tag,
+            disp,
+            w,
+            c1 - 1,
+            y0,
+            p.min_support,
+            mode,
+            rig.depth_k,
+            out,
+            &mut rep,
+        );
+    }
+    Ok(rep)
+}
+
+/// Finishes output row `q` from the disparity ring (rows not matched are "no data").
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    tag: &[usize; 3],
+    disp: &[u16],
+    w: usize,
+    q: usize,
+    y0: usize,
+    support: u8,
+    mode: Output,
+    depth_k: u32,
+    out: &mut [u16],
+    rep: &mut BandReport,
+) {
+    let row = |y: Option<usize>| -> Option<&[u16]> {
+        let y = y?;
+        if tag.get(y % 3) != Some(&(y + 1)) {
+            return None;
+        }
+        disp.get((y % 3) * w..(y % 3) * w + w)
+    };
+    let Some(cur) = row(Some(q)) else {
+        return;
+    };
+    let Some(o) = out.get_mut((q - y0) * w..(q - y0) * w + w) else {
+        return;
+    };
+    finish_row(
+        row(q.checked_sub(1)),
+        cur,
+        row(Some(q + 1)),
+        support,
+        mode,
+        depth_k,
+        o,
+        rep,
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::band;
+    use super::super::{StereoParams, StereoRig};
+    use super::{words_len, BandReport, Output};
+    use crate::camera::CameraParams;
+    use crate::image::ImageView;
+
+    /// A small linear congruential generator (deterministic test data).
+    struct Lcg(u64);
+
+    impl Lcg {
+        fn next(&mut self) -> u32 {
+            self.0 = self
+                .0
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (self.0 >> 33) as u32
+        }
+
+        fn below(&mut self, n: u32) -> u32 {
+            self.next() % n.max(1)
+        }
+    }
+
+    const FRAME_MAX: usize = 640 * 360;
+    const BYTES_MAX: usize = 2 * 640 * 16;
+    const WORDS_MAX: usize = 40_000;
+    const OUT_MAX: usize = 320 * 180;
+
+    /// A random textured left frame and a right frame shifted by a disparity growing down
+    /// the image (plus noise, some flat patches and a few saturated pixels).
+    fn pair(rng: &mut Lcg, w: usize, h: usize, max_shift: usize, l: &mut [u8], r: &mut [u8]) {
+        for (i, p) in l.iter_mut().enumerate().take(w * h) {
+            let (x, y) = (i % w, i / w);
+            // Flat patches: textureless windows the gap test rejects.
+            *p = if (x / 24 + y / 24) % 5 == 0 {
+                90
+            } else {
+                (30 + rng.below(200)) as u8
+            };
+        }
+        for y in 0..h {
+            let s = max_shift * y / h;
+            for x in 0..w {
+                let src = l[y * w + (x + s).min(w - 1)];
+                let noise = rng.below(9) as i32 - 4;
+                r[y * w + x] = (i32::from(src) + noise).clamp(0, 255) as u8;
+            }
+        }
+        for _ in 0..20 {
+            let i = rng.below((w * h) as u32) as usize;
+            r[i] = 255;
+        }
+    }
+
+    /// Rows `y0..y1` by the band matcher into `new` and by the reference into `old`.
+    #[allow(clippy::too_many_arguments)]
+    fn run_both(
+        rig: &StereoRig,
+        l: &ImageView<'_>,
+        r: &ImageView<'_>,
+        y0: usize,
+        y1: usize,
+        mode: Output,
+        new: &mut [u16],
+        old: &mut [u16],
+    ) -> (BandReport, BandReport) {
+        let s = rig.buffer_sizes();
+        let (w, _) = rig.output_size();
+        let mut bytes = [0u8; BYTES_MAX];
+        let mut words = [0xa5a5u16; WORDS_MAX];
+        let n = (y1 - y0) * w;
+        new[..n].fill(1);
+        let a = band::run(
+            rig,
+            l,
+            Some(r),
+            y0,
+            y1,
+            &mut bytes[..s.bytes],
+            &mut words[..s.words],
+            &mut new[..n],
+            mode,
+        )
+        .unwrap();
+        bytes.fill(0);
+        words.fill(0x5a5a);
+        old[..n].fill(2);
+        let b = super::run(
+            rig,
+            l,
+            Some(r),
+            y0,
+            y1,
+            &mut bytes[..s.bytes],
+            &mut words[..words_len(w, s.max_disparities)],
+            &mut old[..n],
+            mode,
+        )
+        .unwrap();
+        (a, b)
+    }
+
+    #[test]
+    fn lane_matcher_equals_the_scalar_reference_on_random_pairs() {
+        let mut rng = Lcg(11);
+        let mut compared = 0u64;
+        let (mut valid, mut cases) = (0u64, 0u32);
+        let (mut lbuf, mut rbuf) = ([0u8; FRAME_MAX], [0u8; FRAME_MAX]);
+        let (mut new, mut old) = ([0u16; OUT_MAX], [0u16; OUT_MAX]);
+        for case in 0..14 {
+            // Case 0: the default rig and settings at the default frame size.
+            let (cam, p) = if case == 0 {
+                (CameraParams::default(), StereoParams::default())
+            } else {
+                let cam = CameraParams {
+                    width_px: 160 + 16 * rng.below(7),
+                    height_px: 96 + 8 * rng.below(12),
+                    hfov_deg: 60.0 + rng.below(40) as f32,
+                    height_m: 1.5 + 0.1 * rng.below(10) as f32,
+                    tilt_deg: 10.0 + rng.below(20) as f32,
+                };
+                let p = StereoParams {
+                    baseline_m: 0.2 + 0.1 * rng.below(8) as f32,
+                    downsample: 1 + rng.below(2) as u8,
+                    radius_px: 1 + rng.below(7) as u8,
+                    prefilter_cap: [1, 15, 31, 63][rng.below(4) as usize],
+                    uniqueness_pct: rng.below(30) as u8,
+                    min_gap_per_px: rng.below(3) as u8,
+                    lr_check: rng.below(4) != 0,
+                    min_support: rng.below(5) as u8,
+                    relief_below_m: 0.5 + 0.5 * rng.below(4) as f32,
+                    ..StereoParams::default()
+                };
+                (cam, p)
+            };
+            let Ok(rig) = StereoRig::new(&cam, &p) else {
+                continue;
+            };
+            let (fw, fh) = (cam.width_px as usize, cam.height_px as usize);
+            let (w, h) = rig.output_size();
+            let shift = rig.ranges().global_max() * usize::from(p.downsample);
+            let sizes = rig.buffer_sizes();
+            if fw * fh > FRAME_MAX
+                || sizes.bytes > BYTES_MAX
+                || sizes.words > WORDS_MAX
+                || w * h > OUT_MAX
+            {
+                continue;
+            }
+            pair(&mut rng, fw, fh, shift, &mut lbuf, &mut rbuf);
+            let lv = ImageView::new(&lbuf[..fw * fh], fw, fh).unwrap();
+            let rv = ImageView::new(&rbuf[..fw * fh], fw, fh).unwrap();
+            for _ in 0..3 {
+                let y0 = rng.below(h as u32) as usize;
+                let y1 = (y0 + 1 + rng.below(h as u32) as usize).min(h);
+                let mode = if rng.below(2) == 0 {
+                    Output::DisparityQ4
+                } else {
+                    Output::DepthMm
+                };
+                let (a, b) = run_both(&rig, &lv, &rv, y0, y1, mode, &mut new, &mut old);
+                assert_eq!(a, b, "case {case}: counts of rows {y0}..{y1}");
+                let n = (y1 - y0) * w;
+                assert!(
+                    new[..n] == old[..n],
+                    "case {case}: output of rows {y0}..{y1}"
+                );
+                compared += n as u64;
+                valid += a.valid;
+                cases += 1;
+            }
+        }
+        // The comparison saw real matches, not only empty rows.
+        assert!(
+            cases >= 20 && compared > 20_000 && valid > 2_000,
+            "{cases} {compared} {valid}"
+        );
+    }
+}
