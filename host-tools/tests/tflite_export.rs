@@ -3,7 +3,7 @@
 //! from the tensors' scales as TFLite derives them) equal to the core's, bit for bit.
 //! (`scripts/tflm-check.sh` runs the same model in TensorFlow Lite Micro itself.)
 
-use orbfix::nn::conv::{conv2d_s8, ConvParams, Dims};
+use orbfix::nn::conv::{conv2d_s8, conv2d_s8_buffer_size, ConvParams, Dims};
 use orbfix::nn::input::INPUT_LEN;
 use orbfix::nn::model::{Arena, SiameseNet, EMBED_LEN, SHIPPED_WEIGHTS};
 use orbfix_host::nn::multiplier::tflite_multiplier;
@@ -163,7 +163,7 @@ fn run_tflite(model: &[u8], input: &[i8]) -> Vec<i8> {
             let relu = o.fused_activation_function() == tflite::ActivationFunctionType::RELU;
             let out_dims = dims4(&out_t);
             let mut out = vec![0i8; out_dims.len()];
-            let mut scratch = vec![0i16; k * k * x.dims.c];
+            let mut scratch = vec![0i16; conv2d_s8_buffer_size(k, x.dims.c)];
             conv2d_s8(
                 &ConvParams {
                     kernel: k,
