@@ -481,14 +481,7 @@ impl<'s> RangeAccumulator<'s> {
                 got: scratch.len(),
             });
         }
-        if mask.len() != cells {
-            return Err(ReprojectError::BufferSize {
-                buffer: Buffer::Mask,
-                needed: cells,
-                got: mask.len(),
-            }
-            .into());
-        }
+        check_len(Buffer::Mask, mask.len(), cells)?;
         // Safety: `u16` is valid for every bit pattern and its alignment divides `u32`'s,
         // so `align_to_mut` views the whole word buffer as half-words (empty prefix and
         // suffix).
@@ -798,14 +791,7 @@ impl<'s> RangeAccumulator<'s> {
     pub fn finish(self, out: &mut [u8]) -> Result<RangeReport, RangeError> {
         let n = self.grid.n;
         let cells = self.grid.cells();
-        if out.len() != cells {
-            return Err(ReprojectError::BufferSize {
-                buffer: Buffer::Output,
-                needed: cells,
-                got: out.len(),
-            }
-            .into());
-        }
+        check_len(Buffer::Output, out.len(), cells)?;
         let Cells { sums, counts: mask } = self.cells;
         let mut report = self.report;
         // Per cell: mean of the samples; the sum's slot then keeps whether the cell was
@@ -893,15 +879,8 @@ pub fn reproject_range(
     mask: &mut [u8],
 ) -> Result<RangeReport, RangeError> {
     let mut acc = RangeAccumulator::new(params, pose, grid, opts, scratch, mask)?;
-    let cells = grid.cells();
-    if out.len() != cells {
-        return Err(ReprojectError::BufferSize {
-            buffer: Buffer::Output,
-            needed: cells,
-            got: out.len(),
-        }
-        .into());
-    }
+    // Checked here too (not only in `finish`), so that no pixel is read for nothing.
+    check_len(Buffer::Output, out.len(), grid.cells())?;
     for ((f, d), view) in frames.iter().zip(depths).zip(View::ALL) {
         if let Some(f) = f {
             acc.check_sizes(view, f, d.as_ref())?;
@@ -913,6 +892,20 @@ pub fn reproject_range(
         }
     }
     acc.finish(out)
+}
+
+/// `Ok` when `buffer` has the `needed` length (`got`), else its `BufferSize` error.
+fn check_len(buffer: Buffer, got: usize, needed: usize) -> Result<(), RangeError> {
+    if got == needed {
+        Ok(())
+    } else {
+        Err(ReprojectError::BufferSize {
+            buffer,
+            needed,
+            got,
+        }
+        .into())
+    }
 }
 
 /// `u32` words that hold `halves` `u16` values.
