@@ -178,6 +178,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let render_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let mut truth_loc = None;
+        // The top-down image the fix itself made (stereo: from its own stereo stage), and the
+        // truth-depth fix's beside it.
+        let mut fix_top: Option<orbfix_host::eval::TopDown> = None;
+        let mut truth_top: Option<orbfix_host::eval::TopDown> = None;
+        let as_top = |o: &orbfix_host::fix::FixOutcome| orbfix_host::eval::TopDown {
+            image: o.top.clone(),
+            mask: o.mask.clone(),
+            n: top.n,
+            m_per_px: top.m_per_px,
+        };
         let loc = match (&spec, fix_cfg) {
             (None, Some(mut cfg)) => {
                 cfg.grid = opts.grid;
@@ -197,21 +207,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 };
                 if stereo_side {
                     if let Some(tobs) = obs.with_truth_depth() {
-                        truth_loc = Some(
-                            localize_fix(
-                                &runner,
-                                &tobs,
-                                &map,
-                                &product,
-                                (q.prior_x_m, q.prior_y_m),
-                                50,
-                            )
-                            .with_context(|| format!("stop {} (truth depth)", q.id))?
-                            .0,
-                        );
+                        let (l, o) = localize_fix(
+                            &runner,
+                            &tobs,
+                            &map,
+                            &product,
+                            (q.prior_x_m, q.prior_y_m),
+                            50,
+                        )
+                        .with_context(|| format!("stop {} (truth depth)", q.id))?;
+                        truth_loc = Some(l);
+                        truth_top = Some(as_top(&o));
                     }
                 }
-                localize_fix(
+                let (l, o) = localize_fix(
                     &runner,
                     &obs,
                     &map,
@@ -219,8 +228,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     (q.prior_x_m, q.prior_y_m),
                     50,
                 )
-                .with_context(|| format!("stop {}", q.id))?
-                .0
+                .with_context(|| format!("stop {}", q.id))?;
+                fix_top = Some(as_top(&o));
+                l
             }
             (Some(spec), _) => {
                 localize_top_down(spec, &top, &map, (q.prior_x_m, q.prior_y_m), &cfg, 50)
@@ -310,9 +320,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             )?;
         }
         save_png_atomic(
-            &overlay::top_down_picture(&top),
+            &overlay::top_down_picture(fix_top.as_ref().unwrap_or(&top)),
             &a.out.join(format!("stop_{:02}_topdown.png", q.id)),
         )?;
+        if let Some(t) = &truth_top {
+            save_png_atomic(
+                &overlay::top_down_picture(t),
+                &a.out
+                    .join(format!("stop_{:02}_topdown_truth_depth.png", q.id)),
+            )?;
+        }
         let svg = fix_svg(
             &map,
             &loc,
@@ -369,7 +386,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         serde_json::to_string_pretty(&json)?.as_bytes(),
     )?;
     println!(
-        "bound = the fix's stated error bound; status: ok / ambiguous / no-data / on-border; win = rank of the true 50 m window among the study's 441 (fix: ranked by the best coarse score in its 12.5 m cell), cell = its rank by the best dense score in its cell; pictures in {}: stop_NN_topdown.png (the top-down image), stop_NN_map.svg (map with the CNN response, truth, fix, error bound, candidates, legend)",
+        "bound = the fix's stated error bound; status: ok / ambiguous / no-data / on-border; win = rank of the true 50 m window among the study's 441 (fix: ranked by the best coarse score in its 12.5 m cell), cell = its rank by the best dense score in its cell; pictures in {}: stop_NN_topdown.png (the top-down image the fix made; with stereo depth also stop_NN_topdown_truth_depth.png), stop_NN_map.svg (map with the CNN response, truth, fix, error bound, candidates, legend)",
         a.out.display()
     );
     Ok(())
