@@ -50,9 +50,36 @@ pub struct Args {
     /// (same weights, biases, scales and zero points), and write it to --out.
     #[arg(long, requires = "weights")]
     pub rederive_multipliers: bool,
-    /// Weight file to re-derive (with --rederive-multipliers).
-    #[arg(long, requires = "rederive_multipliers")]
+    /// Weight file to re-derive (with --rederive-multipliers) or to dequantize (with
+    /// --dequantize).
+    #[arg(long)]
     pub weights: Option<PathBuf>,
+    /// Do not quantize: write the float network that the weight file given with --weights
+    /// stands for (weights and biases times their scales) as a checkpoint to --out, a
+    /// starting point for `orbfix train --init` when the float checkpoint is not at hand.
+    #[arg(long, requires = "weights", conflicts_with = "rederive_multipliers")]
+    pub dequantize: bool,
+}
+
+/// `--dequantize`: the float checkpoint an int8 weight file stands for.
+fn dequantize_file(input: &std::path::Path, out: &std::path::Path) -> Result<()> {
+    use orbfix_host::nn::qmodel::HostQModel;
+    let bytes = orbfix_host::nn::weights_file::load_bytes(Some(input))?;
+    let q =
+        HostQModel::from_bytes(&bytes).with_context(|| format!("reading {}", input.display()))?;
+    let net = orbfix_host::nn::quantize::dequantize(&q)?;
+    if let Some(dir) = out.parent() {
+        if !dir.as_os_str().is_empty() {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+    }
+    net.save(out)?;
+    println!(
+        "{}: wrote the float network it stands for to {}",
+        input.display(),
+        out.display()
+    );
+    Ok(())
 }
 
 /// `--rederive-multipliers`: rewrites only the requantization multipliers of `input`.
@@ -101,6 +128,13 @@ pub fn run(a: Args) -> Result<()> {
     if let (true, Some(input)) = (a.rederive_multipliers, &a.weights) {
         return rederive(input, &a.out);
     }
+    if let (true, Some(input)) = (a.dequantize, &a.weights) {
+        return dequantize_file(input, &a.out);
+    }
+    anyhow::ensure!(
+        a.weights.is_none(),
+        "--weights is only used with --rederive-multipliers or --dequantize"
+    );
     let net = FloatNet::load(&a.checkpoint)?;
     let world = World::new(a.world_seed);
     anyhow::ensure!(a.calibration >= 2, "--calibration must be at least 2");

@@ -115,3 +115,56 @@ pub fn quantize(net: &FloatNet, ranges: &[(f32, f32)]) -> Result<HostQModel> {
         layers,
     })
 }
+
+/// The float network an int8 model stands for: weights `w[c] * scale_w[c]` (OHWI back to
+/// OIHW), biases `b[c] * scale_in * scale_w[c]`. A starting point for fine-tuning shipped
+/// weights whose float checkpoint is not at hand (`orbfix quantize --dequantize`); the
+/// activations' ranges are not kept (the next quantization calibrates them again).
+pub fn dequantize(q: &HostQModel) -> Result<FloatNet> {
+    use candle_core::{Device, Tensor, Var};
+    ensure!(
+        q.layers.len() == SPEC.len(),
+        "the model has {} layers, the network {}",
+        q.layers.len(),
+        SPEC.len()
+    );
+    let mut s_in = q.input_scale as f64;
+    let (mut weights, mut biases) = (Vec::new(), Vec::new());
+    for (l, s) in q.layers.iter().zip(SPEC.iter()) {
+        let k = s.kernel;
+        ensure!(
+            l.in_c == s.in_c && l.out_c == s.out_c && l.kernel == k,
+            "a layer's shape differs from the network's"
+        );
+        let fan = s.in_c * k * k;
+        ensure!(
+            l.weights.len() == s.out_c * fan
+                && l.weight_scale.len() == s.out_c
+                && l.bias.len() == s.out_c,
+            "a layer's weight, scale or bias count differs from its shape"
+        );
+        let mut w = vec![0f32; s.out_c * fan];
+        let mut b = vec![0f32; s.out_c];
+        for oc in 0..s.out_c {
+            let sw = l.weight_scale[oc] as f64;
+            for ic in 0..s.in_c {
+                for ky in 0..k {
+                    for kx in 0..k {
+                        let v = l.weights[((oc * k + ky) * k + kx) * s.in_c + ic];
+                        w[oc * fan + (ic * k + ky) * k + kx] = (f64::from(v) * sw) as f32;
+                    }
+                }
+            }
+            b[oc] = (f64::from(l.bias[oc]) * s_in * sw) as f32;
+        }
+        let wt = Tensor::from_vec(w, (s.out_c, s.in_c, k, k), &Device::Cpu)?;
+        weights.push(Var::from_tensor(&wt)?);
+        biases.push(Var::from_tensor(&Tensor::from_vec(
+            b,
+            s.out_c,
+            &Device::Cpu,
+        )?)?);
+        s_in = l.output_scale as f64;
+    }
+    Ok(FloatNet { weights, biases })
+}
