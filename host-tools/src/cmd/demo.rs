@@ -182,12 +182,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         // truth-depth fix's beside it.
         let mut fix_top: Option<orbfix_host::eval::TopDown> = None;
         let mut truth_top: Option<orbfix_host::eval::TopDown> = None;
-        let as_top = |o: &orbfix_host::fix::FixOutcome| orbfix_host::eval::TopDown {
-            image: o.top.clone(),
-            mask: o.mask.clone(),
-            n: top.n,
-            m_per_px: top.m_per_px,
-        };
         let loc = match (&spec, fix_cfg) {
             (None, Some(mut cfg)) => {
                 cfg.grid = opts.grid;
@@ -205,31 +199,28 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     weights: weights.clone(),
                     cfg,
                 };
+                // One fix on `o`: its localization and the top-down image it made.
+                let fix_on = |o: &_, what: &str| {
+                    let (l, out) =
+                        localize_fix(&runner, o, &map, &product, (q.prior_x_m, q.prior_y_m), 50)
+                            .with_context(|| format!("stop {}{what}", q.id))?;
+                    let t = orbfix_host::eval::TopDown {
+                        image: out.top,
+                        mask: out.mask,
+                        n: top.n,
+                        m_per_px: top.m_per_px,
+                    };
+                    anyhow::Ok((l, t))
+                };
                 if stereo_side {
                     if let Some(tobs) = obs.with_truth_depth() {
-                        let (l, o) = localize_fix(
-                            &runner,
-                            &tobs,
-                            &map,
-                            &product,
-                            (q.prior_x_m, q.prior_y_m),
-                            50,
-                        )
-                        .with_context(|| format!("stop {} (truth depth)", q.id))?;
+                        let (l, t) = fix_on(&tobs, " (truth depth)")?;
                         truth_loc = Some(l);
-                        truth_top = Some(as_top(&o));
+                        truth_top = Some(t);
                     }
                 }
-                let (l, o) = localize_fix(
-                    &runner,
-                    &obs,
-                    &map,
-                    &product,
-                    (q.prior_x_m, q.prior_y_m),
-                    50,
-                )
-                .with_context(|| format!("stop {}", q.id))?;
-                fix_top = Some(as_top(&o));
+                let (l, t) = fix_on(&obs, "")?;
+                fix_top = Some(t);
                 l
             }
             (Some(spec), _) => {
