@@ -1,7 +1,7 @@
 //! The band matcher: running-sum SAD block matching of rows `y0..y1` (see the module docs
 //! of [`super`] for the pipeline).
 
-use super::swar::{absdiff_u8x4, min_u16x2, pair, set_pair, split_u8x4, word};
+use super::swar::{absdiff_u8x4, min2_u16x2, min_u16x2, pair, split_u8x4, word};
 use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
 use crate::image::ImageView;
 use crate::peak::parabola_min_offset;
@@ -331,17 +331,18 @@ struct RowMatch {
 }
 
 /// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none): `aggw`
-/// holds the row's aggregated costs in the lane layout of [`lane`], `natw` the same in
-/// disparity order (two per word, the lower index in the low lane), `rbc` and `rbd` the
-/// right image's winners (cost and index, right pixel `xr` at `w - 1 - xr`).
+/// holds the row's aggregated costs in the lane layout of [`lane`], `nat` the same in
+/// disparity order, `rbc` and `rbd` the right image's winners (cost and index, right pixel
+/// `xr` at `w - 1 - xr`).
 ///
-/// The winner and the right image's winners are scanned two indices at a time
-/// ([`min_u16x2`]): each lane keeps its first strict minimum, and of the two lanes the
-/// smaller cost, on a tie the smaller index, is the first minimum of the whole range, what
-/// a scan in index order keeping strict improvements finds. A right pixel sees its
-/// candidates in increasing index, so keeping strict improvements per right pixel is the
-/// first of its smallest costs too. Indices are below 2^15 (at most the working width,
-/// [`StereoRig::new`]), so [`RB_NONE`] is never one.
+/// Per column, one pass over the row's words slides the aggregation window one column on
+/// and writes the costs in disparity order; the winner and the right image's winners are
+/// then scanned two indices at a time ([`min_u16x2`]): each lane keeps its first strict
+/// minimum, and of the two lanes the smaller cost, on a tie the smaller index, is the
+/// first minimum of the whole range, what a scan in index order keeping strict
+/// improvements finds. A right pixel sees its candidates in increasing index, so keeping
+/// strict improvements per right pixel is the first of its smallest costs too. Indices are
+/// below 2^15 (at most the working width, [`StereoRig::new`]), so [`RB_NONE`] is never one.
 // A function of its own (called once per row): its loops get the registers to
 // themselves instead of spilling in the band loop.
 #[inline(never)]
@@ -350,7 +351,7 @@ fn match_row(
     m: &RowMatch,
     colsum: &[u32],
     aggw: &mut [u32],
-    natw: &mut [u32],
+    nat: &mut [u16],
     rbc: &mut [u16],
     rbd: &mut [u16],
     disp: &mut [u16],
@@ -360,15 +361,29 @@ fn match_row(
     let len = m.jh + 1 - m.jl;
     // The whole groups of four holding the row's range.
     let (w0, w1) = (2 * (m.jl / 4), 2 * (m.jh / 4) + 2);
+    let nw = w1 - w0;
+    let groups = nw / 2;
     let first = m.jl - 4 * (m.jl / 4);
-    let (Some(aggw), Some(natw)) = (aggw.get_mut(..w1 - w0), natw.get_mut(..w1 - w0)) else {
+    let (w, r, gw) = (m.w, m.r, m.gw);
+    // Everything the column loop reads or writes through pointers, checked once per row.
+    if gw == 0
+        || w1 > gw
+        || colsum.len() < w * gw
+        || aggw.len() < nw
+        || nat.len() < 2 * nw
+        || first + len > 2 * nw
+        || rbc.len() < w
+        || rbd.len() < w
+        || disp.len() < w
+        || w < 2 * r + 1
+    {
         return;
-    };
-    let col = |x: usize| colsum.get(x * m.gw + w0..x * m.gw + w1).unwrap_or(&[]);
+    }
+    let aggw = aggw.get_mut(..nw).unwrap_or(&mut []);
     aggw.fill(0);
-    for x in 0..=2 * m.r {
-        for (a, &c) in aggw.iter_mut().zip(col(x)) {
-            *a += c;
+    for c in colsum.chunks_exact(gw).take(2 * r + 1) {
+        for (a, &v) in aggw.iter_mut().zip(c.get(w0..w1).unwrap_or(&[])) {
+            *a += v;
         }
     }
     if m.lr {
@@ -376,78 +391,88 @@ fn match_row(
         rbd.fill(RB_NONE);
     }
     let d0 = m.dmin + m.jl;
+    let (cs, ap, np) = (colsum.as_ptr(), aggw.as_mut_ptr(), nat.as_mut_ptr());
+    let (rbc_p, rbd_p) = (rbc.as_mut_ptr(), rbd.as_mut_ptr());
     let (mut edge, mut uniq) = (0u64, 0u64);
-    for x in m.r..m.w - m.r {
-        if x > m.r {
-            // Exact per lane (bounds: `lane`).
-            for ((a, &ci), &co) in aggw.iter_mut().zip(col(x + m.r)).zip(col(x - m.r - 1)) {
-                *a = *a + ci - co;
-            }
-        }
-        // Group words (4g + 3 | 4g + 1, 4g + 2 | 4g) to (4g | 4g + 1, 4g + 2 | 4g + 3).
-        for (n, p) in natw.chunks_exact_mut(2).zip(aggw.chunks_exact(2)) {
-            if let ([n0, n1], [e, o]) = (n, p) {
-                *n0 = (*e & 0xffff_0000) | (*o >> 16);
-                *n1 = (*o & 0xffff) | (*e << 16);
-            }
-        }
-        // Safety: `u16` has half the size and alignment of `u32` and every bit pattern is
-        // valid, so the words read as `u16` give no prefix or suffix; the view is dropped
-        // before the words are written again. Little-endian: the low lane comes first.
-        let (_, nat, _) = unsafe { natw.align_to::<u16>() };
-        let Some(agg) = nat.get(first..first + len) else {
-            return;
-        };
+    for x in r..w - r {
         // The right pixel x - d0 - j sees cost j at its own disparity d0 + j: for the
         // first `n` indices it lies inside the image, at `w - 1 - (x - d0) + j` of `rbc`
-        // and `rbd`: both run forward with the costs.
+        // and `rbd`: both run forward with the costs (`n` is 0 for `x < d0`).
         let n = if m.lr { inside(x, d0, len) } else { 0 };
-        let t0 = (m.w - 1).saturating_sub(x.saturating_sub(d0));
-        let (rc, rd) = match (rbc.get_mut(t0..t0 + n), rbd.get_mut(t0..t0 + n)) {
-            (Some(c), Some(d)) => (c, d),
-            _ => (&mut [][..], &mut [][..]),
-        };
-        let nlr = rc.len().min(agg.len());
-        let (mut bc, mut bj) = (u32::MAX, u32::MAX);
-        let mut jj = 0x0001_0000u32;
-        for ((ac, cc), dc) in agg
-            .get(..nlr)
-            .unwrap_or(&[])
-            .chunks_exact(2)
-            .zip(rc.chunks_exact_mut(2))
-            .zip(rd.chunks_exact_mut(2))
-        {
-            let a = pair(ac);
-            let (c, d) = min_u16x2(pair(cc), pair(dc), a, jj);
-            set_pair(cc, c);
-            set_pair(dc, d);
-            (bc, bj) = min_u16x2(bc, bj, a, jj);
-            // Two indices further in both lanes (below 2^15: no carry between them).
-            jj += 0x0002_0002;
-        }
-        // Of the two lanes (even and odd indices), the smaller cost, then the first index.
-        let (lo, hi) = ((bc & 0xffff, bj & 0xffff), (bc >> 16, bj >> 16));
-        let (mut best, mut bi) = if hi.0 < lo.0 || (hi.0 == lo.0 && hi.1 < lo.1) {
-            hi
-        } else {
-            lo
-        };
-        let done = nlr - nlr % 2;
-        for (j, &a) in agg.iter().enumerate().skip(done) {
-            let a = u32::from(a);
-            if a < best {
-                best = a;
-                bi = j as u32;
-            }
-            if j < nlr {
-                if let (Some(c), Some(d)) = (rc.get_mut(j), rd.get_mut(j)) {
-                    if a < u32::from(*c) {
-                        *c = a as u16;
-                        *d = j as u16;
-                    }
+        let t0 = if n > 0 { w - 1 - (x - d0) } else { 0 };
+        // Safety: checked above for the row: column `x + r < w` and column `x - r - 1`
+        // (`x > r`) of `colsum` (at least `w gw` words) hold words `w0 .. w0 + nw <= gw`;
+        // `aggw` has `nw` words and `nat` `2 nw` elements, aligned to 4 bytes (the words
+        // it was split from), written as whole `u32` at even indices `4g`, `4g + 2`;
+        // the costs read are `nat[first .. first + len]` (`first + len <= 2 nw`), two at a
+        // time as one unaligned `u32`; `t0 + n <= w` (`n <= x - d0 + 1`), the length of
+        // `rbc` and `rbd`. Nothing else refers to these buffers during the block, and the
+        // slice `agg` made from `nat` lives only within it.
+        let (best, bi, agg) = unsafe {
+            if x > r {
+                let ci = cs.add((x + r) * gw + w0);
+                let co = cs.add((x - r - 1) * gw + w0);
+                for g in 0..groups {
+                    // Exact per lane (bounds: `lane`).
+                    let e = *ap.add(2 * g) + *ci.add(2 * g) - *co.add(2 * g);
+                    let d = *ap.add(2 * g + 1) + *ci.add(2 * g + 1) - *co.add(2 * g + 1);
+                    *ap.add(2 * g) = e;
+                    *ap.add(2 * g + 1) = d;
+                    nat_group(np.add(4 * g), e, d);
+                }
+            } else {
+                for g in 0..groups {
+                    nat_group(np.add(4 * g), *ap.add(2 * g), *ap.add(2 * g + 1));
                 }
             }
-        }
+            let agg = np.add(first) as *const u16;
+            let (rc, rd) = (rbc_p.add(t0), rbd_p.add(t0));
+            let (mut bc, mut bj) = (u32::MAX, u32::MAX);
+            let mut jj = 0x0001_0000u32;
+            let mut k = 0;
+            while k < n / 2 {
+                let a = agg.add(2 * k).cast::<u32>().read_unaligned();
+                let (cp, dp) = (rc.add(2 * k).cast::<u32>(), rd.add(2 * k).cast::<u32>());
+                let (c, d) = min_u16x2(cp.read_unaligned(), dp.read_unaligned(), a, jj);
+                cp.write_unaligned(c);
+                dp.write_unaligned(d);
+                (bc, bj) = min_u16x2(bc, bj, a, jj);
+                // Two indices further in both lanes (below 2^15: no carry between them).
+                jj += 0x0002_0002;
+                k += 1;
+            }
+            while k < len / 2 {
+                let a = agg.add(2 * k).cast::<u32>().read_unaligned();
+                (bc, bj) = min_u16x2(bc, bj, a, jj);
+                jj += 0x0002_0002;
+                k += 1;
+            }
+            // Of the two lanes (even and odd indices), the smaller cost, then the first
+            // index; then an odd range's last index.
+            let (lo, hi) = ((bc & 0xffff, bj & 0xffff), (bc >> 16, bj >> 16));
+            let (mut best, mut bi) = if hi.0 < lo.0 || (hi.0 == lo.0 && hi.1 < lo.1) {
+                hi
+            } else {
+                lo
+            };
+            if len % 2 == 1 {
+                let a = u32::from(*agg.add(len - 1));
+                if a < best {
+                    best = a;
+                    bi = (len - 1) as u32;
+                }
+            }
+            // An odd count's last right pixel.
+            if n % 2 == 1 {
+                let j = n - 1;
+                let a = *agg.add(j);
+                if a < *rc.add(j) {
+                    *rc.add(j) = a;
+                    *rd.add(j) = j as u16;
+                }
+            }
+            (best, bi, core::slice::from_raw_parts(agg, len))
+        };
         let best = best as u16;
         let bi = bi as usize;
         let d = d0 + bi;
@@ -466,13 +491,13 @@ fn match_row(
                 continue;
             }
         }
-        let (Some(&l), Some(&r)) = (agg.get(bi - 1), agg.get(bi + 1)) else {
+        let (Some(&lc), Some(&rc)) = (agg.get(bi - 1), agg.get(bi + 1)) else {
             continue;
         };
         let frac = parabola_min_offset(
-            i32::from(l),
+            i32::from(lc),
             i32::from(best),
-            i32::from(r),
+            i32::from(rc),
             i32::from(ONE_Q),
         );
         let q = (d as i32 * i32::from(ONE_Q) + frac).max(1);
@@ -508,10 +533,28 @@ fn match_row(
     }
 }
 
-/// The smallest of `s` (`u16::MAX` when empty).
+/// Writes a group's aggregated words `e` = (4g + 3 | 4g + 1) and `d` = (4g + 2 | 4g) to
+/// `n[0..4]` as the costs of 4g, 4g + 1, 4g + 2, 4g + 3 (two `u32`, little-endian).
+///
+/// # Safety
+/// `n` points at four writable `u16` aligned to 4 bytes.
+#[inline(always)]
+unsafe fn nat_group(n: *mut u16, e: u32, d: u32) {
+    let n = n.cast::<u32>();
+    // Safety: the caller's contract (four aligned, writable `u16`).
+    unsafe {
+        n.write((d >> 16) | (e & 0xffff_0000));
+        n.add(1).write((d & 0xffff) | (e << 16));
+    }
+}
+
+/// The smallest of `s` (`u16::MAX` when empty), two at a time ([`min2_u16x2`]).
 #[inline(always)]
 fn min_of(s: &[u16]) -> u16 {
-    s.iter().fold(u16::MAX, |m, &c| m.min(c))
+    let pairs = s.chunks_exact(2);
+    let tail = pairs.remainder().first().copied().unwrap_or(u16::MAX);
+    let m = pairs.fold(u32::MAX, |m, c| min2_u16x2(m, pair(c)));
+    (m as u16).min((m >> 16) as u16).min(tail)
 }
 
 /// Speckle filter and output of row `q` from the disparity rows above, at and below.
@@ -678,6 +721,9 @@ pub(crate) fn run(
     let (colsum, rest) = wide.split_at_mut((w * gw).min(wide.len()));
     let (aggw, rest) = rest.split_at_mut(gw.min(rest.len()));
     let (natw, _) = rest.split_at_mut(gw.min(rest.len()));
+    // Safety: `u16` has half the size and alignment of `u32` and every bit pattern is
+    // valid, so the words read as `u16` give no prefix or suffix.
+    let (_, nat, _) = unsafe { natw.align_to_mut::<u16>() };
     let mut disp_tag = [0usize; 3];
     let oc = out_cost(p.prefilter_cap);
     let ri = r as isize;
@@ -712,7 +758,7 @@ pub(crate) fn run(
                 lr: p.lr_check,
             };
             if let Some(drow) = disp.get_mut((y % 3) * w..(y % 3) * w + w) {
-                match_row(&m, colsum, aggw, natw, rbc, rbd, drow, &mut rep);
+                match_row(&m, colsum, aggw, nat, rbc, rbd, drow, &mut rep);
                 if let Some(t) = disp_tag.get_mut(y % 3) {
                     *t = y + 1;
                 }

@@ -1,5 +1,6 @@
 //! Reduction and pre-filtering of the stereo frames, one row at a time (integer).
 
+use super::swar::word;
 use crate::image::ImageView;
 
 /// Row `row` of `frame` reduced by `k` (1..=4; box average of `k x k` pixels, rounded) into
@@ -18,12 +19,33 @@ pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8
             }
         }
         2 => {
-            // The default: one zip over both rows' pixel pairs.
+            // The default: four output pixels from two words of each row, then one at a
+            // time for the rest.
             if let (Some(a), Some(b)) = (row_at(0), row_at(1)) {
+                let n4 = w.min(out.len()) / 4;
+                let (head, _) = out.split_at_mut((4 * n4).min(out.len()));
+                for (o, (p, q)) in head
+                    .chunks_exact_mut(4)
+                    .zip(a.chunks_exact(8).zip(b.chunks_exact(8)))
+                {
+                    if let ([o0, o1, o2, o3], [p0, p1, p2, p3, p4, p5, p6, p7]) = (o, p) {
+                        let (q0, q1) = (word(q), word(q.get(4..).unwrap_or(&[])));
+                        let w0 = u32::from_le_bytes([*p0, *p1, *p2, *p3]);
+                        let w1 = u32::from_le_bytes([*p4, *p5, *p6, *p7]);
+                        // Lanes: the sums of pixels 0..4 and 4..8 of both rows, + 2.
+                        let lo = (pair_sums(w0) + pair_sums(q0) + 0x0002_0002) >> 2;
+                        let hi = (pair_sums(w1) + pair_sums(q1) + 0x0002_0002) >> 2;
+                        *o0 = lo as u8;
+                        *o1 = (lo >> 16) as u8;
+                        *o2 = hi as u8;
+                        *o3 = (hi >> 16) as u8;
+                    }
+                }
                 for (o, (p, q)) in out
                     .iter_mut()
                     .zip(a.chunks_exact(2).zip(b.chunks_exact(2)))
                     .take(w)
+                    .skip(4 * n4)
                 {
                     if let ([p0, p1], [q0, q1]) = (p, q) {
                         let s = u32::from(*p0) + u32::from(*p1) + u32::from(*q0) + u32::from(*q1);
@@ -45,6 +67,12 @@ pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8
             }
         }
     }
+}
+
+/// Sums of the byte pairs of `v` in two `u16` lanes: bytes 0 + 1 low, 2 + 3 high.
+#[inline(always)]
+fn pair_sums(v: u32) -> u32 {
+    (v & 0x00ff_00ff) + ((v >> 8) & 0x00ff_00ff)
 }
 
 /// Box average of `K x K` pixels of the `K` source rows (rounded) into the first `w`

@@ -116,21 +116,44 @@ pub(crate) fn min_u16x2(best: u32, best_idx: u32, a: u32, a_idx: u32) -> (u32, u
     )
 }
 
+/// Lane-wise minimum of two `u16` pairs (`USUB16` then `SEL` on Armv7E-M).
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+#[inline(always)]
+pub(crate) fn min2_u16x2(a: u32, b: u32) -> u32 {
+    let m: u32;
+    // Safety: register-only Armv7E-M DSP instructions (compiled only with the
+    // `armv7em-dsp` feature on Arm, for Cortex-M4/M7); no memory, no stack. `USUB16` sets
+    // the GE flags (lane `a >= b`), which the `SEL` in the same block reads; the flags are
+    // not declared preserved.
+    unsafe {
+        core::arch::asm!(
+            "usub16 {t}, {a}, {b}",
+            "sel {m}, {b}, {a}",
+            a = in(reg) a,
+            b = in(reg) b,
+            t = out(reg) _,
+            m = out(reg) m,
+            options(pure, nomem, nostack),
+        );
+    }
+    m
+}
+
+/// Lane-wise minimum of two `u16` pairs (portable form of the Armv7E-M version).
+#[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+#[inline(always)]
+pub(crate) fn min2_u16x2(a: u32, b: u32) -> u32 {
+    let lo = (a & 0xffff).min(b & 0xffff);
+    let hi = (a >> 16).min(b >> 16);
+    lo | hi << 16
+}
+
 /// Two `u16` as one pair (the first in the low lane); `u32::MAX` for a shorter slice.
 #[inline(always)]
 pub(crate) fn pair(c: &[u16]) -> u32 {
     match *c {
         [a, b, ..] => u32::from(a) | u32::from(b) << 16,
         _ => u32::MAX,
-    }
-}
-
-/// Writes a pair back to two `u16` (the low lane first); a shorter slice is left as is.
-#[inline(always)]
-pub(crate) fn set_pair(c: &mut [u16], v: u32) {
-    if let [a, b, ..] = c {
-        *a = v as u16;
-        *b = (v >> 16) as u16;
     }
 }
 
@@ -154,11 +177,9 @@ mod tests {
         assert_eq!((m, i), (4 | 7 << 16, 8 | 2 << 16));
         let (m, i) = min_u16x2(5 | 7 << 16, 1 | 2 << 16, 6 | 3 << 16, 8 | 9 << 16);
         assert_eq!((m, i), (5 | 3 << 16, 1 | 9 << 16));
-        let mut p = [0u16; 3];
-        set_pair(&mut p, 0x0002_0001);
-        assert_eq!(
-            (p, pair(&p[..2]), pair(&p[..1])),
-            ([1, 2, 0], 0x0002_0001, u32::MAX)
-        );
+        assert_eq!(min2_u16x2(5 | 7 << 16, 4 | 9 << 16), 4 | 7 << 16);
+        assert_eq!(min2_u16x2(u32::MAX, 3 | 65535 << 16), 3 | 65535 << 16);
+        let p = [1u16, 2, 0];
+        assert_eq!((pair(&p[..2]), pair(&p[..1])), (0x0002_0001, u32::MAX));
     }
 }
