@@ -267,20 +267,29 @@ fn bench_world(args: &Args) -> anyhow::Result<()> {
     let t = Instant::now();
     let attrs = render::raster::NodeAttrs::compute(&terrain, &shadow);
     let t_attrs = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let detail = render::near_field_detail(&world, &pose, &terrain, &sun, &opts);
+    let t_detail = t.elapsed().as_secs_f64();
     let cam = orbfix::camera::Camera::new(&params, &pose, orbfix::camera::View::Front)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let t = Instant::now();
     std::hint::black_box(render::raster::render_view(
-        &terrain, &attrs, &cam, &sun, &opts,
+        &terrain,
+        &attrs,
+        detail.as_ref(),
+        &cam,
+        &sun,
+        &opts,
     ));
     let t_view = t.elapsed().as_secs_f64();
     println!(
-        "  breakdown (one location): terrain sampling {:.0} ms ({} levels, {} nodes), shadows {:.0} ms, normals {:.0} ms, raster {:.0} ms per view (x4)",
+        "  breakdown (one location): terrain sampling {:.0} ms ({} levels, {} nodes), shadows {:.0} ms, normals {:.0} ms, near-field texture {:.0} ms, raster {:.0} ms per view (x4)",
         1e3 * t_terrain,
         terrain.levels.len(),
         nodes,
         1e3 * t_shadow,
         1e3 * t_attrs,
+        1e3 * t_detail,
         1e3 * t_view
     );
     if args.map {

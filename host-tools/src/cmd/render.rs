@@ -36,6 +36,11 @@ struct Common {
     /// Gaussian sensor noise, gray levels.
     #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::non_negative_f64, default_value_t = 0.0)]
     noise: f64,
+    /// Half side of the square around the rover where the views show the world's
+    /// micro-relief (roughness, pits, clods, pebbles; docs/rendering.md), metres; 0 = none,
+    /// the mesh's smooth shading only.
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::non_negative_f64, default_value_t = 10.0)]
+    detail_range: f64,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -133,6 +138,7 @@ fn options(c: &Common) -> anyhow::Result<(World, Sun, RenderOptions)> {
     let sun = Sun::new(c.sun_elevation, c.sun_azimuth)?;
     let mut opts = RenderOptions {
         noise_sigma: c.noise,
+        detail_range_m: c.detail_range,
         ..Default::default()
     };
     opts.photometry = match c.photometry {

@@ -10,6 +10,7 @@
 //! (0.1 m near the rover, doubling each ring out to `max_range_m`) with a z-buffer
 //! ([`raster`]); the geometry is that of [`orbfix::camera::Camera`].
 
+pub mod detail;
 pub mod ortho;
 pub mod ply;
 pub mod raster;
@@ -17,7 +18,8 @@ pub mod shadow;
 pub mod stereo;
 pub mod terrain;
 
-use crate::world::{HeightGrid, World};
+use crate::world::micro::MicroRelief;
+use crate::world::{HeightGrid, Rock, World};
 use image::GrayImage;
 use orbfix::camera::{Camera, CameraError, CameraParams, RoverPose, View};
 use orbfix::geo::GeoRef;
@@ -81,6 +83,19 @@ pub trait Surface: Sync {
         let _ = footprint_m;
         self.sample_grid(origin_x_m, origin_y_m, m_per_px, nx, ny)
     }
+
+    /// The surface's centimetre-scale micro-relief, drawn as the near-field texture of the
+    /// ground views ([`detail`]). Default: none.
+    fn micro(&self) -> Option<&MicroRelief> {
+        None
+    }
+
+    /// Calls `f` for every boulder of the height field whose footprint reaches into `rect`
+    /// (`[x0, y0, x1, y1]` metres), so that the near-field texture can draw them finer than
+    /// the mesh ([`detail`]). Default: none.
+    fn visit_boulders(&self, rect: [f64; 4], f: &mut dyn FnMut(&Rock)) {
+        let _ = (rect, f);
+    }
 }
 
 impl Surface for World {
@@ -110,6 +125,12 @@ impl Surface for World {
         footprint_m: f64,
     ) -> HeightGrid {
         World::sample_grid_filtered(self, origin_x_m, origin_y_m, m_per_px, nx, ny, footprint_m)
+    }
+    fn micro(&self) -> Option<&MicroRelief> {
+        World::micro(self)
+    }
+    fn visit_boulders(&self, rect: [f64; 4], f: &mut dyn FnMut(&Rock)) {
+        World::visit_boulders(self, rect, f)
     }
 }
 
@@ -249,6 +270,18 @@ pub struct RenderOptions {
     /// Orthographic renders: samples per pixel side (1..=4), averaged (box filter). 1 (the
     /// default) samples pixel centres; 2 is closer to a real sensor and costs 4x.
     pub ortho_supersample: u32,
+    /// Half side of the square around the rover where the ground views show the world's
+    /// micro-relief ([`detail`]), metres; 0 = none (the mesh's smooth shading only).
+    #[serde(default = "default_detail_range_m")]
+    pub detail_range_m: f64,
+    /// Texel side of the micro-relief texture, metres; 0 = from the focal length
+    /// ([`detail::cell_for_focal`]: the pixel footprint at 8 m, 1..4 cm).
+    #[serde(default)]
+    pub detail_cell_m: f64,
+}
+
+fn default_detail_range_m() -> f64 {
+    10.0
 }
 
 /// Serializable mirror of [`CameraParams`].
@@ -305,6 +338,8 @@ impl Default for RenderOptions {
             max_range_m: 1000.0,
             shadow_reach_m: 300.0,
             ortho_supersample: 1,
+            detail_range_m: default_detail_range_m(),
+            detail_cell_m: 0.0,
         }
     }
 }
@@ -339,6 +374,26 @@ impl RenderOptions {
         pos(self.lod_px_per_cell, "lod_px_per_cell")?;
         pos(self.max_range_m, "max_range_m")?;
         pos(self.shadow_reach_m, "shadow_reach_m")?;
+        if !(self.detail_range_m.is_finite() && (0.0..=100.0).contains(&self.detail_range_m)) {
+            return Err(RenderError::Option(format!(
+                "detail_range_m = {} not in [0, 100]",
+                self.detail_range_m
+            )));
+        }
+        if !(self.detail_cell_m == 0.0
+            || (self.detail_cell_m.is_finite() && (0.002..=0.5).contains(&self.detail_cell_m)))
+        {
+            return Err(RenderError::Option(format!(
+                "detail_cell_m = {} must be 0 (automatic) or in [0.002, 0.5]",
+                self.detail_cell_m
+            )));
+        }
+        if self.detail_cell_m > 0.0 && self.detail_range_m / self.detail_cell_m > 8192.0 {
+            return Err(RenderError::Option(format!(
+                "detail_range_m / detail_cell_m = {} is over 8192 texels",
+                self.detail_range_m / self.detail_cell_m
+            )));
+        }
         if !(1..=4).contains(&self.ortho_supersample) {
             return Err(RenderError::Option(format!(
                 "ortho_supersample = {} not in 1..=4",
@@ -578,7 +633,48 @@ pub(crate) fn render_jobs(
     );
     let shadow = shadow::ShadowField::build(&terrain, &sun, opts.shadow_reach_m);
     let attrs = raster::NodeAttrs::compute(&terrain, &shadow);
-    Ok(render_cameras(&terrain, &attrs, jobs, &sun, opts))
+    let detail = near_field_detail(world, pose, &terrain, &sun, opts);
+    Ok(render_cameras(
+        &terrain,
+        &attrs,
+        detail.as_ref(),
+        jobs,
+        &sun,
+        opts,
+    ))
+}
+
+/// The near-field texture of a rover location ([`detail`]), if the surface has micro-relief
+/// and `opts.detail_range_m > 0`.
+pub fn near_field_detail(
+    world: &dyn Surface,
+    pose: &RoverPose,
+    terrain: &terrain::Terrain,
+    sun: &Sun,
+    opts: &RenderOptions,
+) -> Option<detail::DetailTexture> {
+    let micro = world.micro()?;
+    if opts.detail_range_m <= 0.0 {
+        return None;
+    }
+    let cell = if opts.detail_cell_m > 0.0 {
+        opts.detail_cell_m
+    } else {
+        detail::cell_for_focal(opts.camera_params().focal_px() as f64)
+    };
+    // At most 8192 texels across (checked for explicit cells; automatic ones are >= 1 cm).
+    let half = opts.detail_range_m.min(4096.0 * cell);
+    Some(detail::DetailTexture::build(
+        world,
+        micro,
+        terrain,
+        pose.x_m as f64,
+        pose.y_m as f64,
+        half,
+        cell,
+        sun,
+        opts.shadow_reach_m,
+    ))
 }
 
 /// Renders `jobs` (camera, noise stream, gain on the gray levels before quantization) in
@@ -586,6 +682,7 @@ pub(crate) fn render_jobs(
 pub(crate) fn render_cameras(
     terrain: &terrain::Terrain,
     attrs: &raster::NodeAttrs,
+    detail: Option<&detail::DetailTexture>,
     jobs: &[(Camera, u64, f64)],
     sun: &Sun,
     opts: &RenderOptions,
@@ -593,7 +690,7 @@ pub(crate) fn render_cameras(
     use rayon::prelude::*;
     jobs.par_iter()
         .map(|(cam, stream, gain)| {
-            let (mut gray, range) = raster::render_view(terrain, attrs, cam, sun, opts);
+            let (mut gray, range) = raster::render_view(terrain, attrs, detail, cam, sun, opts);
             if *gain != 1.0 {
                 for g in &mut gray {
                     *g = (*g as f64 * gain).clamp(0.0, 255.0) as f32;

@@ -22,6 +22,7 @@ pub mod dem;
 mod footprint;
 mod grid;
 mod hash;
+pub mod micro;
 mod noise;
 mod rocks;
 pub mod zones;
@@ -50,6 +51,8 @@ pub struct World {
     rocks: RockField,
     /// A DEM + orthoimage drawn instead of the procedural terrain ([`World::from_geotiff`]).
     dem: Option<std::sync::Arc<dem::DemTerrain>>,
+    /// Centimetre-scale roughness, clods and pebbles ([`World::micro`]).
+    micro: std::sync::Arc<micro::MicroRelief>,
 }
 
 /// Noise layer numbers (distinct from the crater and rock layers).
@@ -128,6 +131,18 @@ impl World {
             craters,
             rocks,
             dem: None,
+            micro: std::sync::Arc::new(micro::MicroRelief::new(seed)),
+        }
+    }
+
+    /// The micro-relief of the regolith (roughness, clods, pebbles), drawn by the renderer
+    /// as the near-field texture of the ground views; `None` for a world without relief
+    /// ([`World::flat`]) and for a DEM site, whose surface is the DEM's own.
+    pub fn micro(&self) -> Option<&micro::MicroRelief> {
+        if self.cfg.relief && self.dem.is_none() {
+            Some(&self.micro)
+        } else {
+            None
         }
     }
 
@@ -335,6 +350,20 @@ impl World {
             return Ok(Vec::new());
         }
         Ok(self.rocks.in_rect(x0, y0, x1, y1))
+    }
+
+    /// Calls `f` for every boulder, background or of a fresh crater, whose footprint
+    /// reaches into `rect` (`[x0, y0, x1, y1]` metres): the rocks of the height field, e.g.
+    /// for the renderer to draw the near ones finer than its mesh. Nothing for a DEM site.
+    pub fn visit_boulders(&self, rect: [f64; 4], mut f: impl FnMut(&Rock)) {
+        if self.dem.is_some() || !self.cfg.relief {
+            return;
+        }
+        self.features(rect, false, &Filter::POINT, |feat| {
+            if let Feature::Rock(r) = feat {
+                f(r);
+            }
+        });
     }
 
     /// The distance (metres) beyond which no crater reaches: the largest crater's ejecta.
