@@ -3,7 +3,7 @@
 
 use orbfix_host::nn::data::VAL_ZONE;
 use orbfix_host::nn::realdata::{
-    build, fixed_triplets, load, sample_triplet, RealSpec, Sampling, RECORD_LEN,
+    build, fixed_triplets, load, sample_triplet, RealSpec, Sampling, RECORD_LEN, RECORD_LEN_STEREO,
 };
 use rand::rngs::StdRng;
 use rand::SeedableRng;
@@ -18,6 +18,7 @@ fn real_set_builds_resumes_and_rejects_truncated_files() {
         seed: 5,
         cross_sun_p: 0.5,
         missing_view_p: 0.5,
+        stereo: false,
     };
     assert_eq!(build(&dir, &spec, 2, false).unwrap(), 2);
     // Resuming renders nothing new.
@@ -69,6 +70,69 @@ fn real_set_builds_resumes_and_rejects_truncated_files() {
 }
 
 #[test]
+fn a_stereo_set_keeps_the_fixs_own_stereo_input_beside_the_exact_one() {
+    let dir = std::env::temp_dir().join(format!("orbfix-realstereo-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let spec = RealSpec {
+        world_seed: 1,
+        zone: VAL_ZONE,
+        seed: 11,
+        cross_sun_p: 0.0,
+        missing_view_p: 0.0,
+        stereo: true,
+    };
+    assert_eq!(build(&dir, &spec, 2, false).unwrap(), 2);
+    for i in 0..2 {
+        let f = dir.join(format!("loc_{i:06}.bin"));
+        assert_eq!(
+            std::fs::metadata(&f).unwrap().len() as usize,
+            RECORD_LEN_STEREO
+        );
+    }
+    let set = load(&dir).unwrap();
+    assert_eq!(set.len(), 2);
+    for loc in &set {
+        let st = loc.rover_stereo.expect("stereo input kept");
+        // The stereo top-down image is the same place seen with other (sparser) depth:
+        // normalized like the exact one, correlated with it, but not equal.
+        assert_ne!(st, loc.rover);
+        assert!(st.iter().any(|&v| v > 16) && st.iter().any(|&v| v < -16));
+        let (a, b): (Vec<f64>, Vec<f64>) = loc
+            .rover
+            .iter()
+            .zip(st.iter())
+            .filter(|(&a, &b)| a != 0 && b != 0)
+            .map(|(&a, &b)| (a as f64, b as f64))
+            .unzip();
+        let n = a.len() as f64;
+        assert!(n > 400.0, "only {n} cells valid in both inputs");
+        let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+        let cov: f64 = a.iter().zip(&b).map(|(x, y)| (x - ma) * (y - mb)).sum();
+        let va: f64 = a.iter().map(|x| (x - ma).powi(2)).sum();
+        let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
+        let r = cov / (va * vb).sqrt();
+        assert!(r > 0.5, "stereo and exact inputs correlate only {r:.2}");
+    }
+    // Batches draw both rover inputs.
+    let s = Sampling::default();
+    let mut rng = StdRng::seed_from_u64(5);
+    let (mut exact, mut stereo) = (0, 0);
+    for _ in 0..40 {
+        let t = sample_triplet(&set[0], &s, &mut rng).unwrap();
+        if *t.rover == set[0].rover {
+            exact += 1;
+        } else if Some(*t.rover) == set[0].rover_stereo {
+            stereo += 1;
+        }
+    }
+    assert!(
+        exact > 5 && stereo > 5 && exact + stereo == 40,
+        "{exact} / {stereo}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn training_on_real_crops_is_deterministic() {
     use orbfix_host::nn::train::{train, TrainConfig};
     let base = std::env::temp_dir().join(format!("orbfix-realtrain-{}", std::process::id()));
@@ -80,6 +144,7 @@ fn training_on_real_crops_is_deterministic() {
         seed: 8,
         cross_sun_p: 0.5,
         missing_view_p: 0.0,
+        stereo: false,
     };
     assert_eq!(build(&set, &spec, 3, false).unwrap(), 3);
     let cfg = TrainConfig {

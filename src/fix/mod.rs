@@ -41,6 +41,7 @@ mod report;
 mod scratch;
 mod stage;
 pub mod stereo_depth;
+mod top_down;
 
 pub use config::{
     ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck,
@@ -54,6 +55,7 @@ pub use scratch::{
 };
 pub use stage::{NoClock, Stage, StageClock};
 pub use stereo_depth::{stereo_work_words, StereoConfig};
+pub use top_down::{top_down, top_down_buffer_sizes, TopDownBufferSizes};
 
 use crate::camera::{CameraParams, RoverPose};
 use crate::image::ImageView;
@@ -209,7 +211,6 @@ fn run_once<C: StageClock>(
     if refine_floats.len() < sizes.refine_floats {
         return Err(too_small("refine_floats"));
     }
-    let mut ops = StageOps::default();
     // The fault-injection hook ([`StageClock::after`]) over the live scratch.
     macro_rules! after {
         ($stage:expr) => {
@@ -227,33 +228,8 @@ fn run_once<C: StageClock>(
         };
     }
 
-    // 1. Reprojection.
-    let reprojection = match inputs.depth {
-        Depth::Flat => reproject_flat(inputs, cfg, work, top, mask, clock, &mut ops)?,
-        Depth::Images(depths) => {
-            clock.begin(Stage::Reproject);
-            let r = reproject_depth(
-                inputs,
-                &depths,
-                cfg,
-                work.get_mut(..crate::reproject::range_scratch_len(n))
-                    .ok_or(too_small("work"))?,
-                top,
-                mask,
-            )?;
-            clock.end(Stage::Reproject);
-            ops.reproject_px = r.pixels_read;
-            ReprojectionSummary {
-                range: true,
-                status: r.status,
-                valid_cells: r.valid_cells,
-                stereo: None,
-            }
-        }
-        Depth::Stereo(rights) => {
-            stereo_depth::reproject_stereo(inputs, &rights, cfg, work, top, mask, clock, &mut ops)?
-        }
-    };
+    // 1. Reprojection (the stage on its own: [`top_down::top_down`]).
+    let (reprojection, mut ops) = top_down::top_down(inputs, cfg, work, top, mask, clock)?;
     after!(Stage::Reproject);
     let mut report = FixReport::no_data(inputs.pose.x_m, inputs.pose.y_m, reprojection);
     let permille = reprojection

@@ -34,7 +34,6 @@ pub(crate) fn nn_views(work: &mut [u32]) -> Result<(&mut Arena, &mut [i8; INPUT_
     let input = unsafe { &mut *iw.as_mut_ptr().cast::<[i8; INPUT_LEN]>() };
     Ok((arena, input))
 }
-use crate::reproject::{range_scratch_len, Cell, Tap};
 
 /// Grid rows per band of the flat-ground reprojection table: one band's cells (8 bytes
 /// each) and overlap taps (at most one per cell) live in [`FixScratch::work`] at a time.
@@ -150,19 +149,17 @@ pub fn fix_buffer_sizes(
     }
     let cols = (meta.width - n) / meta.step_px.max(1) + 1;
     let rows = (meta.height - n) / meta.step_px.max(1) + 1;
-    let band_cells = LUT_BAND_ROWS.min(n) * n;
-    let word = core::mem::size_of::<u32>();
-    let lut_words = (band_cells * (core::mem::size_of::<Cell>() + core::mem::size_of::<Tap>()))
-        .div_ceil(word)
-        + 4;
+    let stage1 = super::top_down_buffer_sizes(cfg)?;
     let refine = RefineLayout::new(cfg, meta.width, meta.height);
     let [l0, l1] = cfg.refine.levels;
     let floats = (2 * l0.reach_px + 1).pow(2) + (2 * l1.reach_px + 1).pow(2);
     Ok(FixBufferSizes {
         top: n * n,
         mask: n * n,
-        work_words: (range_scratch_len(n) + super::stereo_depth::stereo_work_words(&cfg.stereo))
-            .max(lut_words)
+        work_words: stage1
+            .work_words_stereo
+            .max(stage1.work_words_images)
+            .max(stage1.work_words_flat)
             .max(refine.words(n))
             .max(NN_WORK_WORDS),
         response: cols * rows,

@@ -52,6 +52,11 @@ pub struct Args {
     /// Cache of the real set (train/ and val/ subfolders, one file per location).
     #[arg(long, default_value = "runs/realdata2")]
     pub real_dir: PathBuf,
+    /// Real set with stereo pairs: each location also keeps the rover input the fix makes
+    /// from its own stereo depth, and batches draw it or the exact-depth one with equal
+    /// probability (a set built without it is rebuilt: the file size differs).
+    #[arg(long)]
+    pub real_stereo: bool,
     /// Only build the real set, do not train.
     #[arg(long)]
     pub build_only: bool,
@@ -88,6 +93,7 @@ pub fn run(a: Args) -> Result<()> {
             seed,
             cross_sun_p: a.cross_sun_p,
             missing_view_p: a.missing_view_p,
+            stereo: a.real_stereo,
         };
         let (td, vd) = (a.real_dir.join("train"), a.real_dir.join("val"));
         let t0 = std::time::Instant::now();

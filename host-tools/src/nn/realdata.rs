@@ -19,10 +19,17 @@
 //! field, the wrong place; nearer offsets drawn more often). Every epoch therefore sees new
 //! positives and negatives of the same rendered locations.
 //!
-//! The set is cached under `dir` as one 164,096-byte file per location (rover input, `i8`
-//! 4096; satellite crop, `u8` 400 x 400 row-major, north up), written atomically, so
-//! building is resumable: existing files are kept. Locations whose inputs are unusable (flat
-//! / too little coverage) are redrawn (up to 8 attempts).
+//! With `stereo` the views are rendered as stereo pairs and each location also keeps the
+//! rover input the fix makes from its **own stereo depth** ([`orbfix::fix::top_down`] with
+//! [`orbfix::fix::Depth::Stereo`], the fix's first stage itself): the network then learns
+//! the sparser, noisier top-down images of the stereo path as well as the exact-depth ones;
+//! a batch draws either with equal probability.
+//!
+//! The set is cached under `dir` as one file per location (rover input, `i8` 4096; with
+//! stereo the stereo rover input, `i8` 4096; satellite crop, `u8` 400 x 400 row-major,
+//! north up: 164,096 or 168,192 bytes), written atomically, so building is resumable:
+//! existing files of the right size are kept. Locations whose inputs are unusable (flat /
+//! too little coverage) are redrawn (up to 8 attempts).
 
 use super::data::{Triplet, Zone};
 use crate::eval::pipeline::reproject_views_range;
@@ -46,12 +53,16 @@ const M_PER_PX: f64 = 0.25;
 pub const MAX_OFFSET_M: f64 = (CROP_PX - WIN_PX) as f64 / 2.0 * M_PER_PX;
 /// Bytes of one cached location: rover input, then the satellite crop.
 pub const RECORD_LEN: usize = INPUT_LEN + CROP_PX * CROP_PX;
+/// Bytes of one cached location of a stereo set: rover input, stereo rover input, crop.
+pub const RECORD_LEN_STEREO: usize = 2 * INPUT_LEN + CROP_PX * CROP_PX;
 
 /// One cached location.
 #[derive(Clone, Debug)]
 pub struct RealLoc {
-    /// Rover side: the prepared top-down input.
+    /// Rover side: the prepared top-down input (exact depth).
     pub rover: [i8; INPUT_LEN],
+    /// Rover side from the fix's own stereo depth (stereo sets only).
+    pub rover_stereo: Option<[i8; INPUT_LEN]>,
     /// Satellite crop centred on the truth, `CROP_PX x CROP_PX` at 0.25 m/px, north up.
     pub crop: Vec<u8>,
 }
@@ -98,6 +109,11 @@ impl Sampling {
 /// Cuts a positive and a hard negative from `loc` (see [`Sampling`]); `None` when a window
 /// has no contrast.
 pub fn sample_triplet(loc: &RealLoc, s: &Sampling, rng: &mut StdRng) -> Option<Triplet> {
+    // Stereo sets: the exact-depth or the stereo rover input, with equal probability.
+    let rover = match &loc.rover_stereo {
+        Some(st) if rng.random_bool(0.5) => st,
+        _ => &loc.rover,
+    };
     let jit = s.pos_radius_m * rng.random_range(0.0f64..1.0).sqrt();
     let jang: f64 = rng.random_range(0.0..std::f64::consts::TAU);
     // Nearer negatives more often (quadratic in a uniform draw).
@@ -120,7 +136,7 @@ pub fn sample_triplet(loc: &RealLoc, s: &Sampling, rng: &mut StdRng) -> Option<T
         off(-dist * ang.cos()),
     );
     let mut t = Triplet {
-        rover: Box::new(loc.rover),
+        rover: Box::new(*rover),
         positive: Box::new([0; INPUT_LEN]),
         hard_negative: Box::new([0; INPUT_LEN]),
     };
@@ -155,6 +171,8 @@ pub struct RealSpec {
     pub cross_sun_p: f64,
     /// Probability of one missing view.
     pub missing_view_p: f64,
+    /// Also keep the rover input of the fix's own stereo depth (stereo pairs rendered).
+    pub stereo: bool,
 }
 
 fn record_path(dir: &Path, i: usize) -> PathBuf {
@@ -221,8 +239,22 @@ pub fn real_location(
             .then(|| rng.random_range(0..4usize));
 
         let pose = render::ground_pose(world, x, y, heading);
-        let set = render::render_views_cached(world, &pose, view_sun, opts, Some(cache))
-            .with_context(|| format!("rendering the views at ({x:.1}, {y:.1}) m"))?;
+        let (set, rights) = if spec.stereo {
+            let s = render::stereo::render_stereo_views(
+                world,
+                &pose,
+                view_sun,
+                opts,
+                &render::stereo::StereoRender::default(),
+                Some(cache),
+            )
+            .with_context(|| format!("rendering the stereo pairs at ({x:.1}, {y:.1}) m"))?;
+            (s.left, Some(s.right))
+        } else {
+            let s = render::render_views_cached(world, &pose, view_sun, opts, Some(cache))
+                .with_context(|| format!("rendering the views at ({x:.1}, {y:.1}) m"))?;
+            (s, None)
+        };
         let grid = orbfix::reproject::GridSpec::default();
         let mut top = reproject_views_range(
             &set,
@@ -235,6 +267,16 @@ pub fn real_location(
         if let Some(k) = missing {
             mask_view(&mut top.mask, top.n, heading, k);
         }
+        let stereo_top = match &rights {
+            Some(r) => {
+                let (img, mut m) = stereo_top_down(&set.views, r, opts, &pose)?;
+                if let Some(k) = missing {
+                    mask_view(&mut m, grid.n, heading, k);
+                }
+                Some((img, m))
+            }
+            None => None,
+        };
         let (sat, _) = render::render_satellite_crop_cached(
             world,
             x,
@@ -249,18 +291,62 @@ pub fn real_location(
         let sat = sat.into_raw();
         let mut loc = RealLoc {
             rover: [0; INPUT_LEN],
+            rover_stereo: None,
             crop: sat,
         };
         let c = (CROP_PX - WIN_PX) / 2;
         let mut centre = [0i8; INPUT_LEN];
-        let ok = loc.crop.len() == CROP_PX * CROP_PX
+        let mut ok = loc.crop.len() == CROP_PX * CROP_PX
             && prepare_input(&top.image, Some(&top.mask), top.n, &mut loc.rover).is_ok()
             && prepare_input(&crop(&loc.crop, CROP_PX, c, c), None, WIN_PX, &mut centre).is_ok();
+        if let Some((img, m)) = &stereo_top {
+            let mut st = [0i8; INPUT_LEN];
+            ok &= prepare_input(img, Some(m), grid.n, &mut st).is_ok();
+            loc.rover_stereo = Some(st);
+        }
         if ok {
             return Ok(Some(loc));
         }
     }
     Ok(None)
+}
+
+/// The fix's own top-down image and mask from the stereo pairs (`views` left, `rights`
+/// right): stage 1 of [`orbfix::fix::run`] alone ([`orbfix::fix::top_down`]) with the
+/// default [`FixConfig`](orbfix::fix::FixConfig), the configuration `orbfix eval` runs.
+fn stereo_top_down(
+    views: &[image::GrayImage; 4],
+    rights: &[image::GrayImage; 4],
+    opts: &RenderOptions,
+    pose: &orbfix::camera::RoverPose,
+) -> Result<(Vec<u8>, Vec<u8>)> {
+    use orbfix::fix::{top_down, top_down_buffer_sizes, Depth, FixConfig, FixInputs, NoClock};
+    use orbfix::image::ImageView;
+    let cfg = FixConfig::default();
+    fn view(v: &image::GrayImage) -> Result<ImageView<'_>> {
+        ImageView::new(v.as_raw(), v.width() as usize, v.height() as usize)
+            .map_err(|e| anyhow::anyhow!("bad view image: {e}"))
+    }
+    let mut frames = [None; 4];
+    let mut right = [None; 4];
+    for k in 0..4 {
+        frames[k] = Some(view(&views[k])?);
+        right[k] = Some(view(&rights[k])?);
+    }
+    let inputs = FixInputs {
+        params: opts.camera_params(),
+        pose: *pose,
+        frames,
+        depth: Depth::Stereo(right),
+        map_product: &[],
+        weights: &[],
+    };
+    let z = top_down_buffer_sizes(&cfg).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut work = vec![0u32; z.work_words(&inputs.depth)];
+    let (mut top, mut mask) = (vec![0u8; z.top], vec![0u8; z.mask]);
+    top_down(&inputs, &cfg, &mut work, &mut top, &mut mask, &mut NoClock)
+        .map_err(|e| anyhow::anyhow!("the fix's stereo top-down image: {e}"))?;
+    Ok((top, mask))
 }
 
 /// Builds (or completes) the cached set of `n` locations in `dir`, rayon-parallel; returns
@@ -270,10 +356,15 @@ pub fn build(dir: &Path, spec: &RealSpec, n: usize, progress: bool) -> Result<us
     let world = World::new(spec.world_seed);
     let cache = TileCache::new(1 << 24);
     let opts = RenderOptions::default();
+    let len = if spec.stereo {
+        RECORD_LEN_STEREO
+    } else {
+        RECORD_LEN
+    };
     let todo: Vec<usize> = (0..n)
         .filter(|&i| {
             std::fs::metadata(record_path(dir, i))
-                .map(|m| m.len() as usize != RECORD_LEN)
+                .map(|m| m.len() as usize != len)
                 .unwrap_or(true)
         })
         .collect();
@@ -290,14 +381,17 @@ pub fn build(dir: &Path, spec: &RealSpec, n: usize, progress: bool) -> Result<us
     );
     todo.par_iter().try_for_each(|&i| -> Result<()> {
         let loc = real_location(&world, &cache, &opts, spec, i as u64)?;
-        let mut rec = Vec::with_capacity(RECORD_LEN);
+        let mut rec = Vec::with_capacity(len);
         // An unusable location is stored as all zeros (skipped on loading, keeps indices).
         match loc {
             Some(l) => {
                 rec.extend(l.rover.iter().map(|&v| v as u8));
+                if let Some(st) = &l.rover_stereo {
+                    rec.extend(st.iter().map(|&v| v as u8));
+                }
                 rec.extend_from_slice(&l.crop);
             }
-            None => rec.resize(RECORD_LEN, 0),
+            None => rec.resize(len, 0),
         }
         crate::fsutil::write_atomic(&record_path(dir, i), &rec)?;
         bar.inc(1);
@@ -329,18 +423,29 @@ pub fn load(dir: &Path) -> Result<Vec<RealLoc>> {
     for p in paths {
         let b = std::fs::read(&p).with_context(|| format!("reading {}", p.display()))?;
         ensure!(
-            b.len() == RECORD_LEN,
-            "{} is {} bytes, expected {RECORD_LEN} (truncated, or a set of an older format? \
-             delete it and rebuild with `orbfix train --real-train N --build-only`)",
+            b.len() == RECORD_LEN || b.len() == RECORD_LEN_STEREO,
+            "{} is {} bytes, expected {RECORD_LEN} (or {RECORD_LEN_STEREO} for a stereo set; \
+             truncated, or a set of an older format? delete it and rebuild with \
+             `orbfix train --real-train N --build-only`)",
             p.display(),
             b.len()
         );
+        let stereo = b.len() == RECORD_LEN_STEREO;
+        let crop_at = if stereo { 2 * INPUT_LEN } else { INPUT_LEN };
         let mut loc = RealLoc {
             rover: [0; INPUT_LEN],
-            crop: b[INPUT_LEN..].to_vec(),
+            rover_stereo: None,
+            crop: b[crop_at..].to_vec(),
         };
         for (d, &s) in loc.rover.iter_mut().zip(&b[..INPUT_LEN]) {
             *d = s as i8;
+        }
+        if stereo {
+            let mut st = [0i8; INPUT_LEN];
+            for (d, &s) in st.iter_mut().zip(&b[INPUT_LEN..2 * INPUT_LEN]) {
+                *d = s as i8;
+            }
+            loc.rover_stereo = Some(st);
         }
         if loc.rover.iter().any(|&v| v != 0) {
             out.push(loc);
