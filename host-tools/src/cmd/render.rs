@@ -111,6 +111,26 @@ enum What {
         #[arg(long)]
         out: PathBuf,
     },
+    /// The near-field figure of docs/: the lower middle of one 1920 x 1080 view (960 x 540
+    /// px, the ground from 2 to about 8 m) drawn twice, left with the mesh's shading only
+    /// (`--detail-range 0`, as views were drawn before the micro-relief), right with the
+    /// world's micro-relief (roughness, pits, clods, pebbles, sharp cast shadows).
+    NearField {
+        #[command(flatten)]
+        common: Common,
+        /// Rover east, metres.
+        #[arg(long, allow_negative_numbers = true, default_value_t = 1000.0)]
+        x: f64,
+        /// Rover north, metres.
+        #[arg(long, allow_negative_numbers = true, default_value_t = 1000.0)]
+        y: f64,
+        /// Heading of the view, degrees clockwise from north.
+        #[arg(long, allow_negative_numbers = true, default_value_t = 270.0)]
+        heading: f64,
+        /// Output PNG.
+        #[arg(long, default_value = "docs/figures/near-field.png")]
+        out: PathBuf,
+    },
     /// The overview figure of docs/: the four views (front, right / rear, left), the 50 m
     /// satellite crop (0.25 m/px, shown 2x) and the 300 m map region around it (0.5 m/px,
     /// the crop outlined).
@@ -278,6 +298,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 geo.origin_y_m(),
                 geo.m_per_px()
             );
+        }
+        What::NearField {
+            common,
+            x,
+            y,
+            heading,
+            out,
+        } => {
+            let (world, sun, mut opts) = options(&common)?;
+            opts.camera.width_px = 1920;
+            opts.camera.height_px = 1080;
+            opts.validate()?;
+            let pose = render::ground_pose(&world, x, y, heading);
+            let smooth = RenderOptions {
+                detail_range_m: 0.0,
+                ..opts
+            };
+            let a = &render::render_views(&world, &pose, sun, &smooth)?[0];
+            let b = &render::render_views(&world, &pose, sun, &opts)?[0];
+            let crop =
+                |img: &GrayImage| image::imageops::crop_imm(img, 480, 540, 960, 540).to_image();
+            let fig = row_of(&[&crop(a), &crop(b)], 8);
+            if let Some(p) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+                ensure_dir(p)?;
+            }
+            write_png(&out, &fig)?;
+            println!("wrote {}", out.display());
         }
         What::Figure { common, x, y, out } => {
             let (world, sun, opts) = options(&common)?;
