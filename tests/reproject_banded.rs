@@ -227,3 +227,59 @@ fn given_status_leaves_views_out_and_still_checks_sizes() {
         Err(ReprojectError::FrameSize { view: 0, .. })
     ));
 }
+
+/// A depth image reduced by `k` and expanded back ([`orbfix::reproject::DepthExpander`])
+/// puts every frame row of flat ground at its own distance: the expanded depth of each row
+/// is the row's own flat-ground depth (to a millimetre and the Q16 rounding), where plain
+/// replication is off by up to the depth change across `k` rows.
+#[test]
+fn expanded_reduced_depth_follows_flat_ground_row_by_row() {
+    use orbfix::camera::{Camera, View};
+    use orbfix::reproject::DepthExpander;
+    let p = CameraParams::default();
+    let pose = RoverPose::level(10.0, -4.0, 0.0, 33.0);
+    let (w, h) = (p.width_px as usize, p.height_px as usize);
+    for view in View::ALL {
+        let cam = Camera::new(&p, &pose, view).unwrap();
+        // Camera depth (mm) of flat ground at frame row `row` (fractional), centre column.
+        let r = cam.world_to_cam;
+        let ground_mm = |row: f32| -> Option<f32> {
+            let vv = (row + 0.5 - cam.cy) / cam.focal_px;
+            let uu = (0.5 * w as f32 - cam.cx) / cam.focal_px;
+            let up = r[(2, 2)] + r[(1, 2)] * vv + r[(0, 2)] * uu;
+            (up < -1e-3).then(|| 1000.0 * p.height_m / -up)
+        };
+        let ex = DepthExpander::new(&p, &pose, view).unwrap();
+        for k in [2usize, 4] {
+            let (mut worst, mut worst_rep) = (0f32, 0f32);
+            let mut out = vec![0u16; w];
+            for j in 0..h {
+                let centre = ((j / k) as f32 + 0.5) * k as f32 - 0.5;
+                let (Some(zc), Some(zj)) = (ground_mm(centre), ground_mm(j as f32)) else {
+                    continue;
+                };
+                if zc > 60_000.0 || zj > 60_000.0 {
+                    continue;
+                }
+                let src = vec![zc.round() as u16; w.div_ceil(k)];
+                ex.expand_row(j, k, &src, &mut out);
+                // The reduced depth is rounded to the millimetre; then the Q16 scale.
+                let rel = ((out[w / 2] as f32 - zj).abs() - 1.0).max(0.0) / zj;
+                worst = worst.max(rel);
+                worst_rep = worst_rep.max((zc - zj).abs() / zj);
+                // No data stays no data.
+                let mut none = vec![7u16; w];
+                ex.expand_row(j, k, &vec![0u16; w.div_ceil(k)], &mut none);
+                assert!(none.iter().all(|&d| d == 0));
+            }
+            assert!(
+                worst < 1e-4,
+                "{view:?} k {k}: expanded depth off by {worst:.2e} beyond 1 mm"
+            );
+            assert!(
+                worst_rep > 5e-3,
+                "{view:?} k {k}: replication would be off by {worst_rep:.2e}"
+            );
+        }
+    }
+}

@@ -57,6 +57,13 @@ pub struct Args {
     /// stereo: neighbours (of 8) within 1 px a disparity needs (0..=8).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().min_support)]
     min_support: u8,
+    /// stereo: relief searched above the ground under the rover, metres (the disparity
+    /// range of each row follows from it; docs/stereo.md).
+    #[arg(long, allow_negative_numbers = true, default_value_t = orbfix::stereo::StereoParams::default().relief_above_m)]
+    relief_above: f32,
+    /// stereo: relief searched below the ground under the rover, metres.
+    #[arg(long, allow_negative_numbers = true, default_value_t = orbfix::stereo::StereoParams::default().relief_below_m)]
+    relief_below: f32,
     /// stereo: output band of the core, rows.
     #[arg(long, default_value_t = 16)]
     band_rows: usize,
@@ -119,6 +126,8 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         uniqueness_pct: args.uniqueness,
         min_gap_per_px: args.min_gap,
         min_support: args.min_support,
+        relief_above_m: args.relief_above,
+        relief_below_m: args.relief_below,
         ..Default::default()
     };
     let opts = orbfix_host::stereo_bench::StereoBenchOptions {

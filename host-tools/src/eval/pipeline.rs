@@ -236,6 +236,7 @@ pub fn observe_raw(
                 &set.left.views,
                 &set.right,
                 &params,
+                &pose,
                 &opts.stereo_params(),
             )?;
             let truth = depth_images(&set.left, None)?;

@@ -77,14 +77,16 @@ pub fn depth_images(set: &ViewSet, noise: Option<StereoNoise>) -> anyhow::Result
 
 /// Depth images of four stereo pairs computed by the core's own matcher
 /// ([`orbfix::stereo::StereoRig`], the same code the fix runs as its `stereo` stage), at
-/// the frames' size: each frame pixel takes the depth of the working-size pixel it lies in
-/// (what the fix's banded stereo stage places). A pair the matcher cannot use (black or
+/// the frames' size: each frame pixel takes the depth of the working-size pixel it lies in,
+/// scaled to its row by the core's [`orbfix::reproject::DepthExpander`] (what the fix's
+/// banded stereo stage places; the rig at `pose`). A pair the matcher cannot use (black or
 /// saturated image, sizes differ) gives an all-zero image ("no depth"); settings it refuses
 /// are an error.
 pub fn stereo_depth_images(
     left: &[image::GrayImage; 4],
     right: &[image::GrayImage; 4],
     params: &orbfix::camera::CameraParams,
+    pose: &orbfix::camera::RoverPose,
     stereo: &orbfix::stereo::StereoParams,
 ) -> anyhow::Result<[Vec<u16>; 4]> {
     use orbfix::image::ImageView;
@@ -99,8 +101,14 @@ pub fn stereo_depth_images(
     let mut words = vec![0u16; s.words];
     let mut small = vec![0u16; wo * ho];
     let mut out: [Vec<u16>; 4] = Default::default();
-    for (o, (l, r)) in out.iter_mut().zip(left.iter().zip(right)) {
+    for ((o, (l, r)), which) in out
+        .iter_mut()
+        .zip(left.iter().zip(right))
+        .zip(orbfix::camera::View::ALL)
+    {
         *o = vec![0u16; w * h];
+        let expander = orbfix::reproject::DepthExpander::new(params, pose, which)
+            .map_err(|e| anyhow::anyhow!("bad rig or pose: {e}"))?;
         fn view(g: &image::GrayImage) -> anyhow::Result<ImageView<'_>> {
             ImageView::new(g.as_raw(), g.width() as usize, g.height() as usize)
                 .map_err(|e| anyhow::anyhow!("bad stereo image: {e}"))
@@ -125,9 +133,8 @@ pub fn stereo_depth_images(
             Err(e) => anyhow::bail!("stereo matching failed: {e}"),
         }
         for y in 0..(ho * k).min(h) {
-            for x in 0..(wo * k).min(w) {
-                o[y * w + x] = small[(y / k) * wo + x / k];
-            }
+            let src = &small[(y / k) * wo..(y / k + 1) * wo];
+            expander.expand_row(y, k, src, &mut o[y * w..(y + 1) * w]);
         }
     }
     Ok(out)
