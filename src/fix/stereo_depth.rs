@@ -139,7 +139,8 @@ pub(super) fn reproject_stereo<C: StageClock>(
     let rig = rig.map_err(FixError::Stereo)?;
     let need = rig.buffer_sizes();
     let (w, h) = rig.output_size();
-    if need.max_disparities > sc.max_disparities {
+    // The scratch holds whole groups of four disparities per column.
+    if need.max_disparities > 4 * sc.max_disparities.div_ceil(4) {
         return Err(FixError::BadConfig {
             field: "stereo.max_disparities",
         });
@@ -201,22 +202,28 @@ pub(super) fn reproject_stereo<C: StageClock>(
             continue;
         }
         acc.set_view_status(view, FrameStatus::Ok, false);
+        // One stream per view: the pair is checked once, and each band continues where
+        // the last one stopped.
+        clock.begin(Stage::Stereo);
+        let stream = rig.view(left, right.as_ref(), bytes, words);
+        clock.end(Stage::Stereo);
+        let mut stream = match stream {
+            Ok(s) => s,
+            Err(e) if per_view(&e) => {
+                *err = Some(e);
+                acc.set_view_status(view, FrameStatus::Ok, true);
+                continue;
+            }
+            Err(e) => return Err(FixError::Stereo(e)),
+        };
         let mut y0 = first;
         while y0 < h {
             let y1 = (y0 + sc.band_rows).min(h);
             let out = band.get_mut(..(y1 - y0) * w).ok_or(too_small)?;
             clock.begin(Stage::Stereo);
-            let r = rig.depth_band(left, right.as_ref(), y0, y1, bytes, words, out);
+            let r = stream.depth_rows(y0, y1, out);
             clock.end(Stage::Stereo);
-            let rep = match r {
-                Ok(rep) => rep,
-                Err(e) if per_view(&e) => {
-                    *err = Some(e);
-                    acc.set_view_status(view, FrameStatus::Ok, true);
-                    break;
-                }
-                Err(e) => return Err(FixError::Stereo(e)),
-            };
+            let rep = r.map_err(FixError::Stereo)?;
             ops.stereo_pixel_disparities += rep.pixel_disparities;
             ops.stereo_cost_updates += rep.cost_updates;
             ops.stereo_depth_px += rep.valid;

@@ -3,11 +3,13 @@
 use super::swar::word;
 use crate::image::ImageView;
 
-/// Row `row` of `frame` reduced by `k` (1..=4; box average of `k x k` pixels, rounded) into
-/// `out` (`frame.width() / k` pixels; a shorter `out` gets its first pixels, a longer one
-/// keeps the rest). Rows past the reduced image (`row >= height / k`) leave `out` as is.
+/// Row `row` of `frame` reduced by `k` (1..=16, clamped; box average of `k x k` pixels,
+/// rounded) into `out` (`frame.width() / k` pixels; a shorter `out` gets its first pixels, a
+/// longer one keeps the rest). Rows past the reduced image (`row >= height / k`) leave
+/// `out` as is. The matcher's coarser levels ([`super::scale`]) reduce by
+/// `downsample * 2^level`.
 pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8]) {
-    let k = k.clamp(1, 4);
+    let k = k.clamp(1, 16);
     let w = frame.width().checked_div(k).unwrap_or(0);
     let row_at = |i: usize| frame.row(row * k + i);
     match k {
@@ -59,13 +61,37 @@ pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8
                 reduce([a, b, c], w, out);
             }
         }
-        _ => {
+        4 => {
             if let (Some(a), Some(b), Some(c), Some(d)) =
                 (row_at(0), row_at(1), row_at(2), row_at(3))
             {
                 reduce([a, b, c, d], w, out);
             }
         }
+        _ => reduce_rows(frame, k, row, w, out),
+    }
+}
+
+/// Box average of `k x k` pixels (any `k` in 5..=16) of rows `row k .. row k + k` into the
+/// first `w` pixels of `out`: column sums of the `k` rows, then `k` sums per output pixel.
+fn reduce_rows(frame: &ImageView<'_>, k: usize, row: usize, w: usize, out: &mut [u8]) {
+    let area = (k * k) as u32;
+    let out = match out.get_mut(..w.min(out.len())) {
+        Some(o) => o,
+        None => return,
+    };
+    if (0..k).any(|i| frame.row(row * k + i).is_none()) {
+        return;
+    }
+    for (x, o) in out.iter_mut().enumerate() {
+        let mut s = 0u32;
+        for i in 0..k {
+            if let Some(p) = frame.row(row * k + i).and_then(|r| r.get(x * k..x * k + k)) {
+                s += p.iter().map(|&v| u32::from(v)).sum::<u32>();
+            }
+        }
+        // At most 16 * 16 * 255: no overflow.
+        *o = ((s + area / 2) / area) as u8;
     }
 }
 
@@ -176,29 +202,15 @@ mod tests {
     }
     // The plain per-pixel forms these replaced, kept as references.
     fn downsample_row_ref(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8]) {
-        let k = k.clamp(1, 4);
+        let k = k.clamp(1, 16);
         let w = frame.width().checked_div(k).unwrap_or(0);
-        if k == 1 {
-            if let Some(src) = frame.row(row) {
-                for (o, &s) in out.iter_mut().zip(src).take(w) {
-                    *o = s;
-                }
-            }
-            return;
-        }
         let area = (k * k) as u32;
-        let rows: [Option<&[u8]>; 4] = [
-            frame.row(row * k),
-            frame.row(row * k + 1),
-            frame.row(row * k + 2),
-            frame.row(row * k + 3),
-        ];
-        if rows.iter().take(k).any(|r| r.is_none()) {
+        if (0..k).any(|i| frame.row(row * k + i).is_none()) {
             return;
         }
         for (i, o) in out.iter_mut().enumerate().take(w) {
             let mut s = 0u32;
-            for r in rows.iter().take(k).flatten() {
+            for r in (0..k).filter_map(|j| frame.row(row * k + j)) {
                 if let Some(b) = r.get(i * k..i * k + k) {
                     s += b.iter().map(|&p| u32::from(p)).sum::<u32>();
                 }
@@ -233,14 +245,14 @@ mod tests {
             seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
             (seed >> 24) as u8
         };
-        let mut img = [0u8; 37 * 9];
+        let mut img = [0u8; 37 * 33];
         for w in [1usize, 2, 3, 4, 5, 8, 13, 37] {
-            let h = 9;
+            let h = 33;
             for p in img.iter_mut() {
                 *p = next();
             }
             let view = ImageView::new(&img[..w * h], w, h).unwrap();
-            for k in 1..=4 {
+            for k in 1..=16 {
                 for row in 0..=h / k {
                     let (mut a, mut b) = ([3u8; 40], [3u8; 40]);
                     downsample_row(&view, k, row, &mut a);

@@ -148,15 +148,6 @@ pub(crate) fn min2_u16x2(a: u32, b: u32) -> u32 {
     lo | hi << 16
 }
 
-/// Two `u16` as one pair (the first in the low lane); `u32::MAX` for a shorter slice.
-#[inline(always)]
-pub(crate) fn pair(c: &[u16]) -> u32 {
-    match *c {
-        [a, b, ..] => u32::from(a) | u32::from(b) << 16,
-        _ => u32::MAX,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -179,7 +170,5 @@ mod tests {
         assert_eq!((m, i), (5 | 3 << 16, 1 | 9 << 16));
         assert_eq!(min2_u16x2(5 | 7 << 16, 4 | 9 << 16), 4 | 7 << 16);
         assert_eq!(min2_u16x2(u32::MAX, 3 | 65535 << 16), 3 | 65535 << 16);
-        let p = [1u16, 2, 0];
-        assert_eq!((pair(&p[..2]), pair(&p[..1])), (0x0002_0001, u32::MAX));
     }
 }
