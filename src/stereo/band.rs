@@ -8,7 +8,10 @@
 //! enters is summed over the window's rows once). The sums are exact, so a row's result
 //! does not depend on where the stream started or how the rows are cut into bands.
 
-use super::kernel::{right_groups, slide_min};
+use super::kernel::{
+    add_groups, column, decide, right_groups, slide_min, threshold, update_columns, ColumnParams,
+    LaneMin, UpdateCols, EDGE, UNIQUE,
+};
 use super::swar::{absdiff_u8x4, min2_u16x2, split_u8x4, word};
 use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
 use crate::image::ImageView;
@@ -256,13 +259,30 @@ struct Sums {
 fn add_row(cs: &mut [u32], s: Sums, l: &[u8], r: &[u8], oc: u16) {
     let oc = u32::from(oc);
     let lanes = 4 * s.n;
-    for (x, &lp) in l.iter().enumerate() {
-        let Some(col) = cs.get_mut(x * s.stride..x * s.stride + 2 * s.n) else {
+    let w = l.len().min(r.len());
+    let (n, stride, dmin) = (s.n, s.stride, s.dmin);
+    if n == 0 || w == 0 || 2 * n > stride || cs.len() < (w - 1) * stride + 2 * n {
+        return;
+    }
+    // From column `x_full` on every group's right pixels lie inside the image.
+    let x_full = (dmin + 4 * n - 1).min(w);
+    let (pc0, pr0, pl) = (cs.as_mut_ptr(), r.as_ptr(), l.as_ptr());
+    for x in x_full..w {
+        // Safety: as in `update_rows`: column x's `2 n` words lie inside `cs`, the right
+        // bytes `x - dmin - 4n + 1 ..= x - dmin` inside `r`.
+        unsafe {
+            let l4 = u32::from(*pl.add(x)) * 0x0101_0101;
+            add_groups(pc0.add(x * stride), pr0.add(x - dmin - 3), l4, n);
+        }
+    }
+    // Columns `0 .. x_full`: some groups partly or wholly outside (those cost `oc`).
+    for (x, &lp) in l.iter().enumerate().take(x_full) {
+        let Some(col) = cs.get_mut(x * stride..x * stride + 2 * n) else {
             break;
         };
-        let full = full_groups(x, s.dmin, s.n);
+        let full = full_groups(x, dmin, n);
         // `hi >= 4 full`: the right pixels of the full groups are `hi - 4 full .. hi`.
-        let hi = (x + 1).saturating_sub(s.dmin);
+        let hi = (x + 1).saturating_sub(dmin);
         let l4 = u32::from(lp) * 0x0101_0101;
         let (fast, _) = col.split_at_mut((2 * full).min(col.len()));
         if let Some(rs) = r.get(hi.saturating_sub(4 * full)..hi) {
@@ -298,29 +318,23 @@ fn update_rows(cs: &mut [u32], s: Sums, ln: &[u8], rn: &[u8], lo: &[u8], ro: &[u
     // From column `x_full` on every group's right pixels lie inside the image: the right
     // pixels of group k at column x are `x - dmin - 4k - 3 ..= x - dmin - 4k`.
     let x_full = (dmin + 4 * n - 1).min(w);
-    let (pc0, pn0, po0) = (cs.as_mut_ptr(), rn.as_ptr(), ro.as_ptr());
-    for x in x_full..w {
-        // Safety: `x < w`, so column x's `2 n` words lie inside `cs` (checked above) and
-        // the right bytes `x - dmin - 4n + 1 ..= x - dmin` (>= 0 as x >= x_full) inside
-        // `rn` and `ro` (`w` bytes each); bytes are read four at a time as unaligned `u32`.
-        unsafe {
-            let a4 = u32::from(*ln.as_ptr().add(x)) * 0x0101_0101;
-            let b4 = u32::from(*lo.as_ptr().add(x)) * 0x0101_0101;
-            let mut pc = pc0.add(x * stride);
-            let mut pn = pn0.add(x - dmin - 3);
-            let mut po = po0.add(x - dmin - 3);
-            for _ in 0..n {
-                let (en, on) = split_u8x4(absdiff_u8x4(a4, pn.cast::<u32>().read_unaligned()));
-                let (eo, oo) = split_u8x4(absdiff_u8x4(b4, po.cast::<u32>().read_unaligned()));
-                // Add first, then subtract: exact per lane (bounds: `lane`).
-                *pc = *pc + en - eo;
-                *pc.add(1) = *pc.add(1) + on - oo;
-                pc = pc.add(2);
-                // The next group's four right pixels (not read after the last group).
-                pn = pn.wrapping_sub(4);
-                po = po.wrapping_sub(4);
-            }
-        }
+    if x_full < w {
+        let x = x_full;
+        let mut u = UpdateCols {
+            pl: ln.as_ptr().wrapping_add(x),
+            pm: lo.as_ptr().wrapping_add(x),
+            pn: rn.as_ptr().wrapping_add(x - dmin - 3),
+            po: ro.as_ptr().wrapping_add(x - dmin - 3),
+            pc: cs.as_mut_ptr().wrapping_add(x * stride),
+            stride: 4 * stride,
+            cols: w - x,
+            n,
+        };
+        // Safety: for every column `x_full <= x < w`: its `2 n` words lie inside `cs`
+        // (checked above), its left bytes inside `ln` and `lo`, and its right bytes `x -
+        // dmin - 4n + 1 ..= x - dmin` (>= 0 as x >= x_full) inside `rn` and `ro` (`w` bytes
+        // each); the column sums' bounds are those of `lane`.
+        unsafe { update_columns(&mut u) };
     }
     // Columns `dmin .. x_full`: some groups partly outside.
     for x in dmin..x_full {
@@ -397,15 +411,6 @@ fn lane_add(ap: &mut [u32], j: usize, v: u32) {
     }
 }
 
-/// Subtracts `v` (no more than the lane holds) from the lane of index `j`.
-#[inline(always)]
-fn lane_sub(ap: &mut [u32], j: usize, v: u32) {
-    let (i, s) = lane(j);
-    if let Some(a) = ap.get_mut(i) {
-        *a -= v << s;
-    }
-}
-
 /// The cost of index `j` (relative to the row's first group) in the row's words.
 #[inline(always)]
 fn lane_cost(ap: &[u32], j: usize) -> u32 {
@@ -414,17 +419,136 @@ fn lane_cost(ap: &[u32], j: usize) -> u32 {
 }
 
 /// The smallest cost of the row's words outside indices `j - 1 ..= j + 1` (relative to
-/// the row's first group, inside its range): those three are biased for one pass; a result
-/// of [`BIAS`] or more means none.
-fn runner_up(ap: &mut [u32], j: usize) -> u32 {
-    for i in j - 1..=j + 1 {
-        lane_add(ap, i, BIAS);
-    }
-    let m = ap.iter().fold(u32::MAX, |m, &v| min2_u16x2(m, v));
-    for i in j - 1..=j + 1 {
-        lane_sub(ap, i, BIAS);
-    }
+/// the row's first group, inside its range, `j >= 1`); a result of [`BIAS`] or more means
+/// none. The three lanes lie in group `(j - 1) / 4` and, from `(j - 1) % 4 = 2` on, the
+/// next: those four words are taken with the three lanes masked (`0xffff`, above every
+/// cost), the others as they are.
+fn runner_up(ap: &[u32], j: usize) -> u32 {
+    // Per `(j - 1) % 4`: masks of words 2g, 2g + 1, 2g + 2, 2g + 3 (word 2g: index 4g + 3
+    // low, 4g + 1 high; word 2g + 1: 4g + 2 low, 4g high; [`lane`]).
+    const MASKS: [[u32; 4]; 4] = [
+        // 4g, 4g + 1, 4g + 2.
+        [0xffff_0000, 0xffff_ffff, 0, 0],
+        // 4g + 1, 4g + 2, 4g + 3.
+        [0xffff_ffff, 0x0000_ffff, 0, 0],
+        // 4g + 2, 4g + 3, 4g + 4.
+        [0x0000_ffff, 0x0000_ffff, 0, 0xffff_0000],
+        // 4g + 3, 4g + 4, 4g + 5.
+        [0x0000_ffff, 0, 0xffff_0000, 0xffff_0000],
+    ];
+    let (g, c) = ((j - 1) >> 2, (j - 1) & 3);
+    let w1 = (2 * g).min(ap.len());
+    let (head, rest) = ap.split_at(w1);
+    let (mid, tail) = rest.split_at(rest.len().min(4));
+    let masks = MASKS.get(c).copied().unwrap_or([0; 4]);
+    let m = head
+        .iter()
+        .chain(tail)
+        .fold(u32::MAX, |m, &v| min2_u16x2(m, v));
+    let m = mid
+        .iter()
+        .zip(masks)
+        .fold(m, |m, (&v, k)| min2_u16x2(m, v | k));
     (m & 0xffff).min(m >> 16)
+}
+
+/// The slide and lane minima of a column before the steady ones ([`match_row`]): `x == r`
+/// (the first window, no slide) or right pixels partly outside the image.
+#[inline(never)]
+fn first_columns(
+    ap: &mut [u32],
+    cs: *const u32,
+    gw: usize,
+    w0: usize,
+    x: usize,
+    r: usize,
+    groups: usize,
+) -> LaneMin {
+    let ap_ptr = ap.as_mut_ptr();
+    // Safety: as in [`match_row`] (checked once per row): columns `x + r` and `x - r - 1`
+    // (`x > r`) of the column sums hold words `w0 .. w0 + 2 groups`; `ap` has `2 groups`
+    // words and is not part of them.
+    unsafe {
+        if x > r {
+            let ci = cs.add((x + r) * gw + w0);
+            let co = cs.add((x - r - 1) * gw + w0);
+            slide_min::<true>(ap_ptr, ci, co, groups)
+        } else {
+            slide_min::<false>(ap_ptr, cs, cs, groups)
+        }
+    }
+}
+
+/// The right image's winners of a column before the steady ones, `base = x - d0`: the
+/// groups whose four right pixels are all inside (`4k + 3 <= base`), then the inside lanes
+/// of the next one at a time.
+#[inline(never)]
+fn right_first_columns(
+    ap: &[u32],
+    rb: &mut [u16],
+    half: usize,
+    base: usize,
+    groups: usize,
+    lo: usize,
+    hi: usize,
+) {
+    if rb.len() < 4 * half || ap.len() < 2 * groups {
+        return;
+    }
+    let n = if base >= 3 {
+        ((base - 3) / 4 + 1).min(groups)
+    } else {
+        0
+    };
+    if n > 0 {
+        let b = base - 3;
+        let rbp = rb.as_mut_ptr();
+        // Safety: `ap` has `2 groups >= 2 n` words; for `k < n` the pixels `b - 4k ..= b -
+        // 4k + 3` lie in `0..=base`, `base < w <= 2 half`, so their costs (`(p & 1) half +
+        // (p >> 1)`, two at a time) and indices (`4 half` bytes further) lie inside `rb`.
+        unsafe {
+            let pe = rbp.add((b & 1) * half + (b >> 1));
+            let pd = rbp.add(((b + 1) & 1) * half + ((b + 1) >> 1));
+            right_groups(ap.as_ptr(), pe, pd, 4 * half, n);
+        }
+    }
+    if n < groups {
+        for j in (4 * n).max(lo)..=hi.min(base) {
+            let a = lane_cost(ap, j);
+            let xr = base - j;
+            let p = (xr & 1) * half + (xr >> 1);
+            if let Some(&c) = rb.get(p) {
+                if a < u32::from(c) {
+                    if let Some(c) = rb.get_mut(p) {
+                        *c = a as u16;
+                    }
+                    if let Some(i) = rb.get_mut(p + 2 * half) {
+                        *i = j as u16;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A column whose winner `key` (`cost << 16 | index`) passed [`decide`]: the exact
+/// runner-up more than one index away ([`runner_up`]) against the uniqueness threshold,
+/// then the sub-pixel disparity (Q4, at least 1) or `None`.
+#[cold]
+#[inline(never)]
+fn accept(ap: &[u32], key: u32, prm: &ColumnParams, d0: usize) -> Option<u16> {
+    let (best, j) = (key >> 16, (key & 0xffff) as usize);
+    if j == 0 || runner_up(ap, j) < threshold(best, prm) {
+        return None;
+    }
+    let frac = parabola_min_offset(
+        lane_cost(ap, j - 1) as i32,
+        best as i32,
+        lane_cost(ap, j + 1) as i32,
+        i32::from(ONE_Q),
+    );
+    let q = ((d0 + j) as i32 * i32::from(ONE_Q) + frac).max(1);
+    Some(q.min(i32::from(u16::MAX)) as u16)
 }
 
 /// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none): `aggw`
@@ -490,111 +614,76 @@ fn match_row(
         i.iter_mut().take(2 * half).for_each(|v| *v = RB_NONE);
     }
     let dmin = m.d0;
-    let (uniq_pct, gap, lr_on) = (m.uniq, m.gap, m.lr);
+    let lr_on = m.lr;
     let cs = colsum.as_ptr();
     let rbp = rb.as_mut_ptr();
-    // From column `x_full` on, every group's right pixels lie inside the image.
+    // From column `x_full` on, every group's right pixels lie inside the image; from
+    // `x_steady` on (also past the first column, which has no slide) each column is one
+    // [`column`] call.
     let x_full = dmin + 4 * groups - 1;
+    let x_steady = x_full.max(r + 1);
+    let (mut pe, mut pd) = (rbp, rbp);
+    let mut prm = ColumnParams {
+        n: groups as u32,
+        off: (4 * half) as u32,
+        lo: lo as u32,
+        hi: hi as u32,
+        lim: 0,
+        um1: 99 - m.uniq,
+        den: 100 - m.uniq,
+        gap: m.gap,
+    };
     let (mut edge, mut uniq) = (0u64, 0u64);
     for x in r..w - r {
         let ap_ptr = ap.as_mut_ptr();
-        // Safety: checked above for the row: columns `x + r < w` and `x - r - 1` (`x > r`)
-        // of `colsum` (at least `w gw` words) hold words `w0 .. w0 + nw <= gw`; `ap` has
-        // `nw` words and is not part of `colsum`.
-        let acc = unsafe {
-            if x > r {
-                let ci = cs.add((x + r) * gw + w0);
-                let co = cs.add((x - r - 1) * gw + w0);
-                slide_min::<true>(ap_ptr, ci, co, groups)
+        // The largest index whose window lies inside the right image (x >= d + r).
+        prm.lim = (x - r) as i32 - dmin as i32;
+        let res = if lr_on && x >= x_steady {
+            // Every group's right pixels inside: pixels `b - 4k ..= b - 4k + 3`, `b = x -
+            // dmin - 3`. One column on, pixel b + 1 is the last column's pixel b + 1 and
+            // pixel b + 2 the one after the last column's pixel b in its array.
+            if x == x_steady {
+                let b = x - dmin - 3;
+                pe = rbp.wrapping_add((b & 1) * half + (b >> 1));
+                pd = rbp.wrapping_add(((b + 1) & 1) * half + ((b + 1) >> 1));
             } else {
-                slide_min::<false>(ap_ptr, cs, cs, groups)
+                (pe, pd) = (pd, pe.wrapping_add(1));
             }
-        };
-        if lr_on && x >= x_full {
-            // Every group's right pixels inside: pixels `b - 4k ..= b - 4k + 3`.
-            let b = x - dmin - 3;
-            // Safety: `ap` has `2 groups` words; for `k < groups` the pixels
-            // `b - 4k ..= b - 4k + 3` lie in `0..=x - dmin` (x >= x_full) and below
-            // `w <= 2 half`, so their costs (`(p & 1) half + (p >> 1)`, two at a time) and
-            // indices (`2 half` elements, `4 half` bytes further) lie inside `rb`'s `4 half`
-            // elements.
+            // Safety: checked above for the row: columns `x + r < w` and `x - r - 1`
+            // (`x > r`) of `colsum` (at least `w gw` words) hold words `w0 .. w0 + nw <=
+            // gw`; `ap` has `nw` words and is not part of `colsum`; `pe`, `pd` point at the
+            // costs of pixels `b` and `b + 1` (`(p & 1) half + (p >> 1)`), and for `k <
+            // groups` the pixels `b - 4k ..= b - 4k + 3` lie in `0..=x - dmin` (x >= x_full)
+            // and below `w <= 2 half`, so their costs (two at a time) and indices (`2 half`
+            // elements, `4 half` bytes further) lie inside `rb`'s `4 half` elements.
             unsafe {
-                let pe = rbp.add((b & 1) * half + (b >> 1));
-                let pd = rbp.add(((b + 1) & 1) * half + ((b + 1) >> 1));
-                right_groups(ap_ptr, pe, pd, 4 * half, groups);
+                column(
+                    ap_ptr,
+                    cs.add((x + r) * gw + w0),
+                    cs.add((x - r - 1) * gw + w0),
+                    pe,
+                    pd,
+                    &prm,
+                )
             }
-        } else if lr_on && x >= dmin {
-            // Index j's right pixel is `x - dmin - j`: the groups whose four right pixels
-            // are all inside (`4k + 3 <= x - dmin`), then the inside lanes of the next.
-            let base = x - dmin;
-            let n = if base >= 3 {
-                ((base - 3) / 4 + 1).min(groups)
-            } else {
-                0
-            };
-            if n > 0 {
-                let b = base - 3;
-                // Safety: as above, for the `n` groups whose pixels are all inside.
-                unsafe {
-                    let pe = rbp.add((b & 1) * half + (b >> 1));
-                    let pd = rbp.add(((b + 1) & 1) * half + ((b + 1) >> 1));
-                    right_groups(ap_ptr, pe, pd, 4 * half, n);
-                }
+        } else {
+            let acc = first_columns(ap, cs, gw, w0, x, r, groups);
+            if lr_on && x >= dmin {
+                right_first_columns(ap, rb, half, x - dmin, groups, lo, hi);
             }
-            if n < groups {
-                for j in (4 * n).max(lo)..=hi.min(base) {
-                    let a = lane_cost(ap, j);
-                    let xr = base - j;
-                    let p = (xr & 1) * half + (xr >> 1);
-                    if let Some(&c) = rb.get(p) {
-                        if a < u32::from(c) {
-                            if let Some(c) = rb.get_mut(p) {
-                                *c = a as u16;
-                            }
-                            if let Some(i) = rb.get_mut(p + 2 * half) {
-                                *i = j as u16;
-                            }
-                        }
+            decide(&acc, &prm)
+        };
+        match res {
+            EDGE => edge += 1,
+            UNIQUE => uniq += 1,
+            key => match accept(ap, key, &prm, dmin) {
+                Some(q) => {
+                    if let Some(o) = disp.get_mut(x) {
+                        *o = q;
                     }
                 }
-            }
-        }
-        // The first minimum of the four lanes: the smallest (cost, index) key.
-        let keys = [
-            (acc.be << 16) | (acc.ie & 0xffff),
-            (acc.be & 0xffff_0000) | (acc.ie >> 16),
-            (acc.bd << 16) | (acc.id & 0xffff),
-            (acc.bd & 0xffff_0000) | (acc.id >> 16),
-        ];
-        let key = keys.iter().fold(u32::MAX, |a, &k| a.min(k));
-        let (best, j) = (key >> 16, (key & 0xffff) as usize);
-        let d = dmin + j;
-        if j <= lo || j >= hi || x < d + r {
-            edge += 1;
-            continue;
-        }
-        // The runner-up more than one index away: a bound from the other lanes first
-        // (biased lanes never bound: they are never below BIAS).
-        // (A lane's index i is adjacent to or at j when i - (j - 1) is 0, 1 or 2; j >= 1.)
-        let jm1 = (j - 1) as u32;
-        let bound = keys
-            .iter()
-            .filter(|&&k| (k & 0xffff).wrapping_sub(jm1) > 2)
-            .fold(u32::MAX, |a, &k| a.min(k >> 16));
-        let reject = |s: u32| s < BIAS && (s * (100 - uniq_pct) < best * 100 || s < best + gap);
-        if reject(bound) || reject(runner_up(ap, j)) {
-            uniq += 1;
-            continue;
-        }
-        let frac = parabola_min_offset(
-            lane_cost(ap, j - 1) as i32,
-            best as i32,
-            lane_cost(ap, j + 1) as i32,
-            i32::from(ONE_Q),
-        );
-        let q = (d as i32 * i32::from(ONE_Q) + frac).max(1);
-        if let Some(o) = disp.get_mut(x) {
-            *o = q.min(i32::from(u16::MAX)) as u16;
+                None => uniq += 1,
+            },
         }
     }
     rep.pixel_disparities += ((w - 2 * r) * (hi + 1 - lo)) as u64;
@@ -631,6 +720,8 @@ fn match_row(
 /// pixels) into `out` (working size: each level pixel covers `2^level` pixels, disparities
 /// scaled to working-size pixels; `out` holds zeros where there is no data). Returns the
 /// level pixels with data.
+// A function of its own (called once per row): its loop keeps its state in registers.
+#[inline(never)]
 fn finish_row(
     above: Option<&[u16]>,
     cur: &[u16],
@@ -639,27 +730,62 @@ fn finish_row(
     out: &mut [u16],
     rep: &mut BandReport,
 ) -> u64 {
-    let near = |a: u16, b: u16| u32::from(b != 0 && a.abs_diff(b) <= ONE_Q);
-    // Neighbours outside the row or the image count as "no data" (0), which is never near.
-    let at = |row: Option<&[u16]>, i: Option<usize>| -> u16 {
-        match (row, i) {
-            (Some(r), Some(i)) => r.get(i).copied().unwrap_or(0),
-            _ => 0,
-        }
-    };
+    // Neighbours outside the row or the image count as "no data" (0), which is never near:
+    // a missing row above or below reads as `cur` with its neighbours not counted.
+    match (above, below) {
+        (Some(a), Some(b)) => finish_row_in::<true, true>(a, cur, b, fin, out, rep),
+        (Some(a), None) => finish_row_in::<true, false>(a, cur, cur, fin, out, rep),
+        (None, Some(b)) => finish_row_in::<false, true>(cur, cur, b, fin, out, rep),
+        (None, None) => finish_row_in::<false, false>(cur, cur, cur, fin, out, rep),
+    }
+}
+
+/// [`finish_row`] with the rows above (`A`) and below (`B`) present or not.
+#[inline(always)]
+fn finish_row_in<const A: bool, const B: bool>(
+    above: &[u16],
+    cur: &[u16],
+    below: &[u16],
+    fin: &Finish,
+    out: &mut [u16],
+    rep: &mut BandReport,
+) -> u64 {
+    let w = cur.len();
     let s = 1usize << fin.level;
+    let support = u32::from(fin.support);
     let (mut valid, mut speck) = (0u64, 0u64);
-    for (x, (o, &d)) in out.chunks_exact_mut(s).zip(cur).enumerate() {
+    if above.len() < w || below.len() < w || out.len() < w * s {
+        return 0;
+    }
+    let (pa, pc, pb) = (above.as_ptr(), cur.as_ptr(), below.as_ptr());
+    for x in 0..w {
+        // Safety: `x < w` and every row has at least `w` elements (checked above).
+        let d = unsafe { *pc.add(x) };
         if d == 0 {
             continue;
         }
-        if fin.support > 0 {
-            let (l, r) = (x.checked_sub(1), Some(x + 1));
-            let mut n = near(d, at(Some(cur), l)) + near(d, at(Some(cur), r));
-            for row in [above, below] {
-                n += near(d, at(row, l)) + near(d, at(row, Some(x))) + near(d, at(row, r));
-            }
-            if n < u32::from(fin.support) {
+        if support > 0 {
+            // Within 1 px: `v - d + 16` in `0..=32` (as `u16`, wrapping), and not 0.
+            let near =
+                |v: u16| u32::from(v != 0 && v.wrapping_sub(d).wrapping_add(ONE_Q) <= 2 * ONE_Q);
+            let (l, r) = (x > 0, x + 1 < w);
+            // Safety: `x - 1` only when `x > 0`, `x + 1` only when `x + 1 < w`.
+            let at = |p: *const u16, i: usize, ok: bool| if ok { unsafe { *p.add(i) } } else { 0 };
+            // Counted until `support` is reached (the same verdict as counting all 8).
+            let mut n = 0;
+            let mut reached = |v: u16| {
+                n += near(v);
+                n >= support
+            };
+            let ok = reached(at(pc, x.wrapping_sub(1), l))
+                || reached(at(pc, x + 1, r))
+                || (A && reached(at(pa, x, true)))
+                || (B && reached(at(pb, x, true)))
+                || (A && reached(at(pa, x.wrapping_sub(1), l)))
+                || (A && reached(at(pa, x + 1, r)))
+                || (B && reached(at(pb, x.wrapping_sub(1), l)))
+                || (B && reached(at(pb, x + 1, r)));
+            if !ok {
                 speck += 1;
                 continue;
             }
@@ -677,7 +803,9 @@ fn finish_row(
                 z as u16
             }
         };
-        o.fill(v);
+        if let Some(o) = out.get_mut(x * s..x * s + s) {
+            o.fill(v);
+        }
         valid += 1;
     }
     rep.rejected_speckle += speck;

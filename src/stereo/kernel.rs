@@ -1,7 +1,8 @@
-//! The two per-column loops of the band matcher's winner-take-all ([`super::band`]): the
-//! window slide with the lane minima, and the right image's winners.
+//! The per-column loops of the band matcher ([`super::band`]): the column sums' update by
+//! one row in and one row out and their set-up, the window slide with the lane minima, and
+//! the right image's winners.
 //!
-//! Both run over the groups of four disparities of a row, two `u16` lanes per word (the
+//! All run over the groups of four disparities of a row, two `u16` lanes per word (the
 //! layout of `band::lane`). With the `armv7em-dsp` feature on Arm (Cortex-M4/M7, the flight
 //! firmware) each is one assembly loop that keeps all its state in registers (`USUB16` and
 //! `SEL` for the lane minima); elsewhere the portable loops below, which give the same
@@ -10,6 +11,8 @@
 //! bit).
 
 use super::swar::min_u16x2;
+#[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+use super::swar::{absdiff_u8x4, split_u8x4};
 
 /// The lane minima of a row's words with their first indices, for the words of index
 /// `4k + 3 | 4k + 1` (`be`, `ie`) and of `4k + 2 | 4k` (`bd`, `id`), `k` the group (from
@@ -226,6 +229,484 @@ unsafe fn right_groups_asm(ap: *const u32, pe: *mut u16, pd: *mut u16, off: usiz
     }
 }
 
+/// Column `x`'s sums of `n` groups at `pc` (two words per group) take one row in and one
+/// row out: group `k`'s four right pixels of the new row are the bytes at `pn - 4k`, of
+/// the old row at `po - 4k` (byte 0 the largest disparity, [`split_u8x4`]), against the
+/// left pixels `a4` and `b4` (the new and the old row's, in all four bytes). The portable
+/// form of [`update_columns`]' inner loop.
+///
+/// # Safety
+/// `pc` points at `2 n` writable aligned words; `pn - 4k` and `po - 4k` (`k < n`) at four
+/// readable bytes each (any alignment). Every lane stays below 2^16 and the outgoing cost
+/// is part of the sum (the caller's bounds): adding first, then subtracting is exact lane
+/// by lane.
+#[cfg(any(test, not(all(target_arch = "arm", feature = "armv7em-dsp"))))]
+#[inline(always)]
+pub(crate) unsafe fn update_groups(
+    pc: *mut u32,
+    pn: *const u8,
+    po: *const u8,
+    a4: u32,
+    b4: u32,
+    n: usize,
+) {
+    // Safety: the caller's contract; bytes are read four at a time as unaligned `u32`, the
+    // pointers step back with `wrapping_sub` (not read after the last group).
+    unsafe {
+        let (mut pc, mut pn, mut po) = (pc, pn, po);
+        for _ in 0..n {
+            let (en, on) = split_u8x4(absdiff_u8x4(a4, pn.cast::<u32>().read_unaligned()));
+            let (eo, oo) = split_u8x4(absdiff_u8x4(b4, po.cast::<u32>().read_unaligned()));
+            *pc = *pc + en - eo;
+            *pc.add(1) = *pc.add(1) + on - oo;
+            pc = pc.add(2);
+            pn = pn.wrapping_sub(4);
+            po = po.wrapping_sub(4);
+        }
+    }
+}
+
+/// The fast columns of one column-sum update ([`update_groups`] for each): column `x`'s
+/// left pixels are the bytes at `pl + x`, `pm + x` (the new and the old row's), its right
+/// pixels start at `pn + x`, `po + x`, its sums at `pc + x * stride` bytes; `cols`
+/// columns, `n` groups each. The fields advance as the columns are done (the assembly
+/// keeps them here between columns).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct UpdateCols {
+    pub(crate) pl: *const u8,
+    pub(crate) pm: *const u8,
+    pub(crate) pn: *const u8,
+    pub(crate) po: *const u8,
+    pub(crate) pc: *mut u32,
+    pub(crate) stride: usize,
+    pub(crate) cols: usize,
+    pub(crate) n: usize,
+}
+
+/// Runs [`update_groups`] over the columns of `u`.
+///
+/// # Safety
+/// `u.cols >= 1`, `u.n >= 1`; for each column `x < u.cols` the contract of
+/// [`update_groups`] with `pc + x * stride` (bytes, aligned words), `pn + x`, `po + x`, and
+/// one readable byte at `pl + x` and `pm + x`.
+#[inline(always)]
+pub(crate) unsafe fn update_columns(u: &mut UpdateCols) {
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    {
+        // Safety: as `update_groups` for each column (the caller's contract); reads and
+        // writes the fields of `u` (`#[repr(C)]`, words at offsets 0, 4, ..., 28); no
+        // stack; the flags are not declared preserved. r6 and r7 are reserved: the
+        // registers are fixed so that the LDM/STM lists are in ascending order.
+        unsafe {
+            core::arch::asm!(
+                "30:",
+                "ldm r0, {{r1, r2, r3, r4, r5}}",
+                "ldrb r8, [r1], #1",
+                "ldrb r9, [r2], #1",
+                "ldr r10, [r0, #20]",
+                "add r11, r3, #1",
+                "add r12, r4, #1",
+                "add lr, r5, r10",
+                "stm r0, {{r1, r2, r11, r12, lr}}",
+                "orr r8, r8, r8, lsl #8",
+                "orr r8, r8, r8, lsl #16",
+                "orr r9, r9, r9, lsl #8",
+                "orr r9, r9, r9, lsl #16",
+                "ldr r10, [r0, #28]",
+                "31:",
+                "ldr r11, [r3], #-4",
+                "uqsub8 lr, r8, r11",
+                "uqsub8 r11, r11, r8",
+                "orr r11, r11, lr",
+                "ldr r12, [r4], #-4",
+                "uqsub8 lr, r9, r12",
+                "uqsub8 r12, r12, r9",
+                "orr r12, r12, lr",
+                "ldrd r1, r2, [r5]",
+                "uxtb16 lr, r11",
+                "add r1, r1, lr",
+                "uxtb16 lr, r12",
+                "sub r1, r1, lr",
+                "uxtb16 lr, r11, ror #8",
+                "add r2, r2, lr",
+                "uxtb16 lr, r12, ror #8",
+                "sub r2, r2, lr",
+                "strd r1, r2, [r5], #8",
+                "subs r10, r10, #1",
+                "bne 31b",
+                "ldr r10, [r0, #24]",
+                "subs r10, r10, #1",
+                "str r10, [r0, #24]",
+                "bne 30b",
+                inout("r0") u as *mut UpdateCols => _,
+                out("r1") _,
+                out("r2") _,
+                out("r3") _,
+                out("r4") _,
+                out("r5") _,
+                out("r8") _,
+                out("r9") _,
+                out("r10") _,
+                out("r11") _,
+                out("r12") _,
+                out("lr") _,
+                options(nostack),
+            );
+        }
+    }
+    #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+    // Safety: the caller's contract, column by column.
+    unsafe {
+        while u.cols > 0 {
+            let a4 = u32::from(*u.pl) * 0x0101_0101;
+            let b4 = u32::from(*u.pm) * 0x0101_0101;
+            update_groups(u.pc, u.pn, u.po, a4, b4, u.n);
+            u.pl = u.pl.add(1);
+            u.pm = u.pm.add(1);
+            u.pn = u.pn.wrapping_add(1);
+            u.po = u.po.wrapping_add(1);
+            u.pc = u.pc.cast::<u8>().wrapping_add(u.stride).cast::<u32>();
+            u.cols -= 1;
+        }
+    }
+}
+
+/// Column `x`'s sums of `n` groups at `pc` take one row's costs: group `k`'s four right
+/// pixels are the bytes at `pr - 4k`, against the left pixel `l4` (in all four bytes).
+///
+/// # Safety
+/// `n >= 1`; `pc` points at `2 n` writable aligned words; `pr - 4k` (`k < n`) at four
+/// readable bytes. Every lane stays below 2^16 (the caller's bounds).
+#[inline(always)]
+pub(crate) unsafe fn add_groups(pc: *mut u32, pr: *const u8, l4: u32, n: usize) {
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    {
+        // Safety: reads `4 n` bytes below and at `pr` one word at a time (single LDR,
+        // unaligned allowed) and reads and writes `2 n` aligned words at `pc` (the caller's
+        // contract); no stack. The flags are not declared preserved.
+        unsafe {
+            core::arch::asm!(
+                "2:",
+                "ldr {t}, [{pr}], #-4",
+                "uqsub8 {x}, {l4}, {t}",
+                "uqsub8 {t}, {t}, {l4}",
+                "orr {t}, {t}, {x}",
+                "ldrd {c0}, {c1}, [{pc}]",
+                "uxtb16 {x}, {t}",
+                "add {c0}, {c0}, {x}",
+                "uxtb16 {x}, {t}, ror #8",
+                "add {c1}, {c1}, {x}",
+                "strd {c0}, {c1}, [{pc}], #8",
+                "subs {n}, {n}, #1",
+                "bne 2b",
+                pc = inout(reg) pc => _,
+                pr = inout(reg) pr => _,
+                n = inout(reg) n => _,
+                l4 = in(reg) l4,
+                t = out(reg) _,
+                x = out(reg) _,
+                c0 = out(reg) _,
+                c1 = out(reg) _,
+                options(nostack),
+            );
+        }
+    }
+    #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+    // Safety: the caller's contract; as in [`update_groups`].
+    unsafe {
+        let (mut pc, mut pr) = (pc, pr);
+        for _ in 0..n {
+            let (e, o) = split_u8x4(absdiff_u8x4(l4, pr.cast::<u32>().read_unaligned()));
+            *pc += e;
+            *pc.add(1) += o;
+            pc = pc.add(2);
+            pr = pr.wrapping_sub(4);
+        }
+    }
+}
+
+/// [`column`]'s verdict: the winner lies on its range's edge, or its window reaches
+/// outside the right image.
+pub(crate) const EDGE: u32 = u32::MAX;
+/// [`column`]'s verdict: another lane's minimum, more than one index from the winner, is
+/// below the uniqueness threshold.
+pub(crate) const UNIQUE: u32 = u32::MAX - 1;
+
+/// A row's settings for [`column`] (and the column's own `lim`), in the order the assembly
+/// reads them.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ColumnParams {
+    /// Groups of the row (>= 1).
+    pub(crate) n: u32,
+    /// Bytes from a right pixel's cost to its index.
+    pub(crate) off: u32,
+    /// The row's range, indices from its first group.
+    pub(crate) lo: u32,
+    pub(crate) hi: u32,
+    /// The largest index whose window lies inside the right image: `x - r - d0` (may be
+    /// negative).
+    pub(crate) lim: i32,
+    /// `99 - uniqueness_pct` and `100 - uniqueness_pct` (>= 50).
+    pub(crate) um1: u32,
+    pub(crate) den: u32,
+    /// The gap the runner-up needs, cost units.
+    pub(crate) gap: u32,
+}
+
+/// The winner of a column's lane minima and the first uniqueness test: [`EDGE`] when the
+/// winner (the first minimum: smallest cost, then smallest index) lies on the range's edge
+/// (`j <= lo`, `j >= hi`) or past `lim`; [`UNIQUE`] when another lane's minimum more than
+/// one index from it is below the threshold `t` ([`threshold`]); else the winner as `cost
+/// << 16 | index`, for the exact runner-up.
+#[inline(always)]
+pub(crate) fn decide(m: &LaneMin, p: &ColumnParams) -> u32 {
+    let keys = [
+        (m.be << 16) | (m.ie & 0xffff),
+        (m.be & 0xffff_0000) | (m.ie >> 16),
+        (m.bd << 16) | (m.id & 0xffff),
+        (m.bd & 0xffff_0000) | (m.id >> 16),
+    ];
+    let key = keys.iter().fold(u32::MAX, |a, &k| a.min(k));
+    let (best, j) = (key >> 16, key & 0xffff);
+    if j <= p.lo || j >= p.hi || j as i32 > p.lim {
+        return EDGE;
+    }
+    let t = threshold(best, p);
+    // A lane's index i is at or next to j when i - (j - 1) is 0, 1 or 2 (j >= 1).
+    let jm1 = j - 1;
+    if keys
+        .iter()
+        .any(|&k| (k & 0xffff).wrapping_sub(jm1) > 2 && (k >> 16) < t)
+    {
+        return UNIQUE;
+    }
+    key
+}
+
+/// The runner-up cost below which the winner `best` is not unique: `s (100 - u) < 100
+/// best` or `s < best + gap`, i.e. `s` below the larger of `ceil(100 best / (100 - u))` and
+/// `best + gap`, and never a biased lane's (`0x8000` or more).
+#[inline(always)]
+pub(crate) fn threshold(best: u32, p: &ColumnParams) -> u32 {
+    ((100 * best + p.um1).checked_div(p.den))
+        .unwrap_or(0)
+        .max(best + p.gap)
+        .min(0x8000)
+}
+
+/// One column of a row whose groups' right pixels all lie inside the image: the window
+/// slide and its lane minima ([`slide_min`]), the right image's winners
+/// ([`right_groups`], `pe`, `pd`, `p.off`), then [`decide`].
+///
+/// # Safety
+/// As [`slide_min`] with the slide and [`right_groups`], with `p.n` groups.
+#[inline(always)]
+pub(crate) unsafe fn column(
+    ap: *mut u32,
+    ci: *const u32,
+    co: *const u32,
+    pe: *mut u16,
+    pd: *mut u16,
+    p: &ColumnParams,
+) -> u32 {
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    {
+        // Safety: the caller's contract.
+        unsafe { column_asm(ap, ci, co, pe, pd, p) }
+    }
+    #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+    {
+        let n = p.n as usize;
+        // Safety: the caller's contract.
+        let m = unsafe { slide_min::<true>(ap, ci, co, n) };
+        // Safety: the caller's contract.
+        unsafe { right_groups(ap, pe, pd, p.off as usize, n) };
+        decide(&m, p)
+    }
+}
+
+/// [`column`] as one Armv7E-M block: the slide loop, the four lane keys and their minimum,
+/// the right winners' loop, then the edge and uniqueness tests, in registers (values live
+/// across a loop go to the stack with one PUSH and come back with one POP).
+///
+/// # Safety
+/// As [`column`].
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+#[inline(always)]
+unsafe fn column_asm(
+    ap: *mut u32,
+    ci: *const u32,
+    co: *const u32,
+    pe: *mut u16,
+    pd: *mut u16,
+    p: &ColumnParams,
+) -> u32 {
+    let res: u32;
+    // Safety: reads `2 n` aligned words at `ci` and `co`, reads and writes `2 n` aligned
+    // words at `ap` and the right winners' pairs at `pe`, `pd` (and `off` bytes further),
+    // reads `p` (the caller's contract); pushes and pops 3 and 5 registers on the stack
+    // (balanced). `USUB16` sets the GE flags the `SEL` after it read; no flags are
+    // preserved. The registers are fixed (r6 and r7 are reserved) so that the register
+    // lists of PUSH and POP are in ascending order. Thumb-2 modified immediates: 0x00010001,
+    // 0x00040004, 0x8000.
+    unsafe {
+        core::arch::asm!(
+            "ldr r8, [r5]",
+            "push {{r3, r4, r5}}",
+            // Slide and lane minima: be r3, ie r4, bd r5, id r9, jj r10.
+            "mvn r3, #0",
+            "mvn r4, #0",
+            "mvn r5, #0",
+            "mvn r9, #0",
+            "movw r10, #3",
+            "movt r10, #1",
+            "21:",
+            "ldrd r11, r12, [r0]",
+            "ldr lr, [r1], #4",
+            "add r11, r11, lr",
+            "ldr lr, [r1], #4",
+            "add r12, r12, lr",
+            "ldr lr, [r2], #4",
+            "sub r11, r11, lr",
+            "ldr lr, [r2], #4",
+            "sub r12, r12, lr",
+            "strd r11, r12, [r0], #8",
+            "usub16 lr, r11, r3",
+            "sel r3, r3, r11",
+            "sel r4, r4, r10",
+            "sub r11, r10, #0x10001",
+            "usub16 lr, r12, r5",
+            "sel r5, r5, r12",
+            "sel r9, r9, r11",
+            "add r10, r10, #0x40004",
+            "subs r8, r8, #1",
+            "bne 21b",
+            // The four keys (cost << 16 | index) and the smallest, r11.
+            "pkhbt r1, r4, r3, lsl #16",
+            "pkhtb r2, r3, r4, asr #16",
+            "pkhbt r8, r9, r5, lsl #16",
+            "pkhtb r10, r5, r9, asr #16",
+            "mov r11, r1",
+            "cmp r11, r2",
+            "it hi",
+            "movhi r11, r2",
+            "cmp r11, r8",
+            "it hi",
+            "movhi r11, r8",
+            "cmp r11, r10",
+            "it hi",
+            "movhi r11, r10",
+            "pop {{r3, r4, r5}}",
+            "push {{r1, r2, r8, r10, r11}}",
+            // Right winners: pe r3, pd r4, off r9, jj r10, from the row's first word.
+            "ldr r8, [r5]",
+            "ldr r9, [r5, #4]",
+            "sub r0, r0, r8, lsl #3",
+            "movw r10, #3",
+            "movt r10, #1",
+            "22:",
+            "ldrd r11, r12, [r0], #8",
+            "ldr r1, [r3]",
+            "ldr r2, [r3, r9]",
+            "usub16 lr, r11, r1",
+            "sel r1, r1, r11",
+            "sel r2, r2, r10",
+            "str r2, [r3, r9]",
+            "str r1, [r3], #-4",
+            "sub r11, r10, #0x10001",
+            "ldr r1, [r4]",
+            "ldr r2, [r4, r9]",
+            "usub16 lr, r12, r1",
+            "sel r1, r1, r12",
+            "sel r2, r2, r11",
+            "str r2, [r4, r9]",
+            "str r1, [r4], #-4",
+            "add r10, r10, #0x40004",
+            "subs r8, r8, #1",
+            "bne 22b",
+            "pop {{r1, r2, r8, r10, r11}}",
+            // Edge: j r12 <= lo, >= hi, or > lim (signed).
+            "uxth r12, r11",
+            "ldr r9, [r5, #8]",
+            "cmp r12, r9",
+            "bls 28f",
+            "ldr r9, [r5, #12]",
+            "cmp r12, r9",
+            "bhs 28f",
+            "ldr r9, [r5, #16]",
+            "cmp r12, r9",
+            "bgt 28f",
+            // Threshold r9 = min(max(ceil(100 best / den), best + gap), 0x8000).
+            "lsr lr, r11, #16",
+            "mov r9, #100",
+            "mul r9, r9, lr",
+            "ldr r3, [r5, #20]",
+            "add r9, r9, r3",
+            "ldr r3, [r5, #24]",
+            "udiv r9, r9, r3",
+            "ldr r3, [r5, #28]",
+            "add r3, r3, lr",
+            "cmp r9, r3",
+            "it lo",
+            "movlo r9, r3",
+            "cmp r9, #0x8000",
+            "it hi",
+            "movhi r9, #0x8000",
+            // A key more than one index from j (index - (j - 1) > 2) below the threshold.
+            "sub r12, r12, #1",
+            "uxth r3, r1",
+            "sub r3, r3, r12",
+            "cmp r3, #2",
+            "bls 23f",
+            "cmp r9, r1, lsr #16",
+            "bhi 29f",
+            "23:",
+            "uxth r3, r2",
+            "sub r3, r3, r12",
+            "cmp r3, #2",
+            "bls 24f",
+            "cmp r9, r2, lsr #16",
+            "bhi 29f",
+            "24:",
+            "uxth r3, r8",
+            "sub r3, r3, r12",
+            "cmp r3, #2",
+            "bls 25f",
+            "cmp r9, r8, lsr #16",
+            "bhi 29f",
+            "25:",
+            "uxth r3, r10",
+            "sub r3, r3, r12",
+            "cmp r3, #2",
+            "bls 30f",
+            "cmp r9, r10, lsr #16",
+            "bhi 29f",
+            "b 30f",
+            "28:",
+            "mvn r11, #0",
+            "b 30f",
+            "29:",
+            "mvn r11, #1",
+            "30:",
+            inout("r0") ap => _,
+            inout("r1") ci => _,
+            inout("r2") co => _,
+            inout("r3") pe => _,
+            inout("r4") pd => _,
+            inout("r5") p as *const ColumnParams => _,
+            out("r8") _,
+            out("r9") _,
+            out("r10") _,
+            out("r11") res,
+            out("r12") _,
+            out("lr") _,
+        );
+    }
+    res
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -293,5 +774,36 @@ mod tests {
         assert_eq!(&rb[2..4], &[5, 1]);
         assert_eq!(&rb[8 + 2..8 + 4], &[3, 1]);
         assert_eq!(&rb[6..8], &[7, 8]);
+    }
+
+    #[test]
+    fn column_sums_take_a_row_in_and_a_row_out() {
+        // Two groups; right bytes of the new row 10..18, of the old row 20..28.
+        let new: [u8; 8] = [1, 2, 3, 4, 5, 6, 7, 8];
+        let old: [u8; 8] = [9, 9, 9, 9, 0, 0, 0, 0];
+        let mut cs = [100u32 | 100 << 16; 4];
+        let (a4, b4) = (5u32 * 0x0101_0101, 3u32 * 0x0101_0101);
+        // Safety: group 0 reads bytes 4..8, group 1 bytes 0..4; four words.
+        unsafe {
+            update_groups(
+                cs.as_mut_ptr(),
+                new.as_ptr().add(4),
+                old.as_ptr().add(4),
+                a4,
+                b4,
+                2,
+            );
+        }
+        // Group 0: new |5 - (5, 6, 7, 8)| = (0, 1, 2, 3), old |3 - 0| = 3: word 0 takes
+        // bytes 0 and 2 (+0 -3, +2 -3), word 1 bytes 1 and 3 (+1 -3, +3 -3).
+        assert_eq!(cs[0], 97 | 99 << 16);
+        assert_eq!(cs[1], 98 | 100 << 16);
+        // Group 1: new |5 - (1, 2, 3, 4)| = (4, 3, 2, 1), old |3 - 9| = 6.
+        assert_eq!(cs[2], 98 | 96 << 16);
+        assert_eq!(cs[3], 97 | 95 << 16);
+        let mut z = [0u32; 4];
+        // Safety: as above.
+        unsafe { add_groups(z.as_mut_ptr(), new.as_ptr().add(4), a4, 2) };
+        assert_eq!(z, [2 << 16, 1 | 3 << 16, 4 | 2 << 16, 3 | 1 << 16]);
     }
 }

@@ -55,13 +55,15 @@ pub(crate) fn split_u8x4(d: u32) -> (u32, u32) {
     (d & 0x00ff_00ff, (d >> 8) & 0x00ff_00ff)
 }
 
-/// The four bytes of a 4-byte chunk as a little-endian word (byte 0 in the low lane).
+/// The first four bytes of a chunk as a little-endian word (byte 0 in the low lane); 0 for
+/// a shorter chunk. One (unaligned) word load where the target allows it.
 #[inline(always)]
 pub(crate) fn word(c: &[u8]) -> u32 {
-    match *c {
-        [a, b, c, d, ..] => u32::from_le_bytes([a, b, c, d]),
-        _ => 0,
+    if c.len() < 4 {
+        return 0;
     }
+    // Safety: `c` has at least four bytes; the read is unaligned and copies them.
+    u32::from_le(unsafe { c.as_ptr().cast::<u32>().read_unaligned() })
 }
 
 /// Lane-wise minimum of two `u16` pairs with their indices: where `a`'s lane is strictly

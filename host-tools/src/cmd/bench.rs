@@ -57,6 +57,14 @@ pub struct Args {
     /// stereo: neighbours (of 8) within 1 px a disparity needs (0..=8).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().min_support)]
     min_support: u8,
+    /// stereo: coarser scales near rows may be matched at (0..=2; 0: every row at the
+    /// working size).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().scale_levels)]
+    scale_levels: u8,
+    /// stereo: a row goes to a coarser scale only where a quarter-pixel disparity error
+    /// there moves its flat ground by at most this, metres.
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().scale_error_m)]
+    scale_error: f32,
     /// stereo: output band of the core, rows.
     #[arg(long, default_value_t = 16)]
     band_rows: usize,
@@ -119,6 +127,8 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         uniqueness_pct: args.uniqueness,
         min_gap_per_px: args.min_gap,
         min_support: args.min_support,
+        scale_levels: args.scale_levels,
+        scale_error_m: args.scale_error,
         ..Default::default()
     };
     let opts = orbfix_host::stereo_bench::StereoBenchOptions {
