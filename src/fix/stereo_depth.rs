@@ -2,8 +2,11 @@
 //! ([`super::Depth::Stereo`]), computed by the core's banded block matcher
 //! ([`crate::stereo`]) band by band and placed into the top-down image as each band is done
 //! ([`crate::reproject::RangeAccumulator::add_rows`]), so only one band of depth exists at a
-//! time. The frames are reprojected at full resolution; each full-resolution pixel takes the
-//! depth of the reduced-size pixel it lies in (`StereoParams::downsample`).
+//! time; each view's bands are one stream of the matcher (no row is matched twice). The
+//! frames are reprojected at full resolution; each full-resolution pixel takes the depth of
+//! the working-size pixel it lies in (`StereoParams::downsample`); rows the matcher took at
+//! a coarser scale ([`crate::stereo::scale`]) come expanded to the working size, so a frame
+//! pixel takes the depth of the coarse pixel it lies in.
 //!
 //! Memory: inside the fix's work area after the range accumulator
 //! ([`stereo_work_words`]): the matcher's byte and `u16` scratch for a working width of at
@@ -30,7 +33,8 @@ pub struct StereoConfig {
     /// The matcher's settings (baseline, reduction, window, checks, ranges).
     pub matcher: StereoParams,
     /// Output rows (working size) per band, 1..=1024: the depth of one band is held at a
-    /// time. Each band costs `2 radius + 3` rows of set-up.
+    /// time. A view's bands are one stream ([`crate::stereo::StereoView`]): the height
+    /// only sets this buffer, not the work.
     pub band_rows: usize,
     /// Largest working width (frame width / `downsample`, pixels, 8..=4096) the scratch is
     /// sized for.

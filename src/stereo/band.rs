@@ -426,7 +426,7 @@ fn lane_cost(ap: &[u32], j: usize) -> u32 {
 fn runner_up(ap: &[u32], j: usize) -> u32 {
     // Per `(j - 1) % 4`: masks of words 2g, 2g + 1, 2g + 2, 2g + 3 (word 2g: index 4g + 3
     // low, 4g + 1 high; word 2g + 1: 4g + 2 low, 4g high; [`lane`]).
-    const MASKS: [[u32; 4]; 4] = [
+    static MASKS: [[u32; 4]; 4] = [
         // 4g, 4g + 1, 4g + 2.
         [0xffff_0000, 0xffff_ffff, 0, 0],
         // 4g + 1, 4g + 2, 4g + 3.
@@ -438,17 +438,19 @@ fn runner_up(ap: &[u32], j: usize) -> u32 {
     ];
     let (g, c) = ((j - 1) >> 2, (j - 1) & 3);
     let w1 = (2 * g).min(ap.len());
-    let (head, rest) = ap.split_at(w1);
-    let (mid, tail) = rest.split_at(rest.len().min(4));
-    let masks = MASKS.get(c).copied().unwrap_or([0; 4]);
-    let m = head
-        .iter()
-        .chain(tail)
-        .fold(u32::MAX, |m, &v| min2_u16x2(m, v));
-    let m = mid
-        .iter()
-        .zip(masks)
-        .fold(m, |m, (&v, k)| min2_u16x2(m, v | k));
+    let w2 = (w1 + 4).min(ap.len());
+    let mut m = u32::MAX;
+    for &v in ap.get(..w1).unwrap_or(&[]) {
+        m = min2_u16x2(m, v);
+    }
+    for &v in ap.get(w2..).unwrap_or(&[]) {
+        m = min2_u16x2(m, v);
+    }
+    if let Some(masks) = MASKS.get(c) {
+        for (&v, &k) in ap.get(w1..w2).unwrap_or(&[]).iter().zip(masks) {
+            m = min2_u16x2(m, v | k);
+        }
+    }
     (m & 0xffff).min(m >> 16)
 }
 

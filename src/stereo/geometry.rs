@@ -154,7 +154,7 @@ impl RowRanges {
     }
 
     /// The most groups of four disparities (`4g .. 4g + 4`) any row's range touches: what
-    /// the column sums of a row hold ([`super::band`]).
+    /// the column sums of a row hold (the band matcher's).
     pub fn max_groups(&self) -> usize {
         (0..self.height)
             .filter_map(|v| self.row(v))

@@ -35,8 +35,10 @@
 //!
 //! Memory: the caller's scratch of [`stereo_buffer_sizes`] (bytes and `u16` words, a few
 //! tens of KB at the default 320 x 180 working size) plus the output band; frames are read
-//! in place (they may live in external memory). A band of rows `y0..y1` costs `2r + 1`
-//! extra rows of set-up: bands of 16 or more rows keep that below ~40 %.
+//! in place (they may live in external memory). A view is one stream ([`StereoView`],
+//! [`StereoRig::view`]): bands that follow each other cost no set-up rows and match no row
+//! twice, so the band height only sets the output buffer; a band on its own
+//! ([`StereoRig::depth_band`]) costs `2r + 1` rows of set-up.
 
 mod band;
 pub mod geometry;
