@@ -536,7 +536,8 @@ fn right_first_columns(
 /// A column whose winner `key` (`cost << 16 | index`) passed [`decide`]: the exact
 /// runner-up more than one index away ([`runner_up`]) against the uniqueness threshold,
 /// then the sub-pixel disparity (Q4, at least 1) or `None`.
-#[inline(always)]
+#[cold]
+#[inline(never)]
 fn accept(ap: &[u32], key: u32, prm: &ColumnParams, d0: usize) -> Option<u16> {
     let (best, j) = (key >> 16, (key & 0xffff) as usize);
     if j == 0 || runner_up(ap, j) < threshold(best, prm) {

@@ -35,8 +35,6 @@ pub struct RowRanges {
     cos_t: [f32; 2],
     roll_term: f32,
     radius: usize,
-    sin_nom: f32,
-    cos_nom: f32,
 }
 
 impl RowRanges {
@@ -67,8 +65,6 @@ impl RowRanges {
             cos_t: [libm::cosf(t0), libm::cosf(t1)],
             roll_term: half * libm::sinf(m),
             radius: usize::from(p.radius_px),
-            sin_nom: libm::sinf(t),
-            cos_nom: libm::cosf(t),
         }
     }
 
@@ -78,12 +74,13 @@ impl RowRanges {
     }
 
     /// Depth error, metres, that a quarter-pixel disparity error at this level causes at
-    /// the flat ground under the top edge of row `v` (its farthest ground, level rover:
-    /// `dZ = Z^2 / (4 f B)`), or `None` when that edge sees no ground (at or above the
-    /// horizon).
-    pub fn quarter_px_depth_error(&self, v: usize) -> Option<f32> {
+    /// the flat ground under the top edge of row `v` (its farthest ground, level rover at
+    /// tilt `tilt_deg`: `dZ = Z^2 / (4 f B)`), or `None` when that edge sees no ground (at
+    /// or above the horizon).
+    pub fn quarter_px_depth_error(&self, v: usize, tilt_deg: f32) -> Option<f32> {
+        let t = tilt_deg.to_radians();
         let yn = (v as f32 - self.cy) / self.focal;
-        let s = self.sin_nom + yn * self.cos_nom;
+        let s = libm::sinf(t) + yn * libm::cosf(t);
         if s.is_nan() || s <= 0.0 {
             return None;
         }

@@ -69,7 +69,7 @@ impl Scales {
             while q0 > 0 {
                 let q = q0 - 1;
                 let ok = g.row(q).is_some()
-                    && g.quarter_px_depth_error(q)
+                    && g.quarter_px_depth_error(q, camera.tilt_deg)
                         .is_some_and(|e| e <= params.scale_error_m);
                 if !ok {
                     break;
@@ -184,17 +184,22 @@ mod tests {
         let g1 = s.level(1);
         for y in a..b {
             assert_eq!(s.level_of_row(y), 1);
-            let e = g1.quarter_px_depth_error(y >> 1).unwrap();
+            let e = g1.quarter_px_depth_error(y >> 1, cam.tilt_deg).unwrap();
             assert!(e <= p.scale_error_m, "{y} {e}");
         }
-        let e_above = g1.quarter_px_depth_error((a >> 1) - 1).unwrap();
+        let e_above = g1
+            .quarter_px_depth_error((a >> 1) - 1, cam.tilt_deg)
+            .unwrap();
         assert!(e_above > p.scale_error_m, "{e_above}");
         // Rows above stay at the working size; the first matched row is level 0's.
         assert_eq!(s.level_of_row(a - 1), 0);
         assert_eq!(s.first_active(), s.level(0).first_active());
         // At level 0 a quarter pixel stays within the same limit further out than at
         // level 1 (the far rows keep the finer scale).
-        let e0 = s.level(0).quarter_px_depth_error(a - 1).unwrap();
+        let e0 = s
+            .level(0)
+            .quarter_px_depth_error(a - 1, cam.tilt_deg)
+            .unwrap();
         assert!(e0 < e_above / 1.9, "{e0} {e_above}");
         // Less work than matching every row at the working size.
         let one = Scales::new(
