@@ -123,13 +123,18 @@ fn flat_ground_disparity_and_depth() {
                 continue;
             }
             n += 1;
-            let e = (d as f32 / 16.0 - dt).abs();
+            // Error in pixels of the row's level (coarser levels: 2^l working pixels).
+            let l = run.rig.scales().level_of_row(y);
+            let e = (d as f32 / 16.0 - dt).abs() / (1 << l) as f32;
             err_sum += e;
             good += usize::from(e <= 0.5);
         }
     }
     assert!(n as f32 > 0.85 * cand as f32, "coverage {n} of {cand}");
-    assert!(good as f32 > 0.97 * n as f32, "{good} of {n} within 0.5 px");
+    assert!(
+        good as f32 > 0.97 * n as f32,
+        "{good} of {n} within 0.5 px of their level"
+    );
     assert!(
         err_sum / (n as f32) < 0.15,
         "mean error {}",
@@ -353,9 +358,73 @@ fn sizes_and_work_of_the_default_rig() {
     );
     assert_eq!(s.bytes, 2 * 320 * 11);
     // Disparities rounded up to groups of four lanes: column costs and aggregated costs on
-    // `u32` words (one element of alignment slack), the costs in disparity order, winners
-    // and disparity rows.
+    // `u32` words (one element of alignment slack), the right image's winners (costs and
+    // indices) and disparity rows.
     let d4 = 4 * s.max_disparities.div_ceil(4);
-    assert_eq!(s.words, 321 * d4 + d4 + 5 * 320 + 1);
+    assert_eq!(s.words, 321 * d4 + 4 * 160 + 3 * 320 + 1);
     assert!(s.working_bytes() < 32 * 1024, "{}", s.working_bytes());
+}
+
+#[test]
+fn near_rows_are_the_coarser_rig_expanded_and_far_rows_the_working_size_rig() {
+    let cam = CameraParams::default();
+    let p = StereoParams::default();
+    let (l, r) = ground_pair(&cam, p.baseline_m, 0);
+    let (lv, rv) = (
+        ImageView::new(&l, 640, 360).unwrap(),
+        ImageView::new(&r, 640, 360).unwrap(),
+    );
+    let disparity = |p: &StereoParams| {
+        let mut run = setup(p);
+        let (w, h) = run.rig.output_size();
+        let mut d = vec![0u16; w * h];
+        run.rig
+            .image(
+                &lv,
+                Some(&rv),
+                23,
+                true,
+                &mut run.bytes,
+                &mut run.words,
+                &mut d,
+            )
+            .unwrap();
+        (run.rig, d)
+    };
+    let (multi, a) = disparity(&p);
+    let single = StereoParams {
+        scale_levels: 0,
+        ..p
+    };
+    let (_, b) = disparity(&single);
+    let (_, c) = disparity(&StereoParams {
+        downsample: 4,
+        ..single
+    });
+    let sc = multi.scales();
+    let (start, end) = sc.rows_of_level(1);
+    assert!(
+        start < end && end == 180,
+        "near rows at level 1: {start}..{end}"
+    );
+    assert_eq!(
+        sc.rows_of_level(2),
+        (180, 180),
+        "no row within 0.125 m at level 2"
+    );
+    // Far rows: exactly the working-size rig.
+    assert_eq!(a[..start * 320], b[..start * 320]);
+    // Near rows: the rig on frames reduced by 4, each pixel covering 2 x 2 working pixels,
+    // its disparity in working-size pixels.
+    let mut near = 0;
+    for y in start..180 {
+        for x in 0..320 {
+            let want = (u32::from(c[(y / 2) * 160 + x / 2]) * 2).min(65_535) as u16;
+            assert_eq!(a[y * 320 + x], want, "row {y} column {x}");
+            near += usize::from(want != 0);
+        }
+    }
+    assert!(near > 2_000, "{near}");
+    // And they differ from the working-size rig's near rows (a coarser match).
+    assert_ne!(a[start * 320..], b[start * 320..]);
 }

@@ -2,8 +2,11 @@
 //! ([`super::Depth::Stereo`]), computed by the core's banded block matcher
 //! ([`crate::stereo`]) band by band and placed into the top-down image as each band is done
 //! ([`crate::reproject::RangeAccumulator::add_rows`]), so only one band of depth exists at a
-//! time. The frames are reprojected at full resolution; each full-resolution pixel takes the
-//! depth of the reduced-size pixel it lies in (`StereoParams::downsample`).
+//! time; each view's bands are one stream of the matcher (no row is matched twice). The
+//! frames are reprojected at full resolution; each full-resolution pixel takes the depth of
+//! the working-size pixel it lies in (`StereoParams::downsample`); rows the matcher took at
+//! a coarser scale ([`crate::stereo::scale`]) come expanded to the working size, so a frame
+//! pixel takes the depth of the coarse pixel it lies in.
 //!
 //! Memory: inside the fix's work area after the range accumulator
 //! ([`stereo_work_words`]): the matcher's byte and `u16` scratch for a working width of at
@@ -30,7 +33,8 @@ pub struct StereoConfig {
     /// The matcher's settings (baseline, reduction, window, checks, ranges).
     pub matcher: StereoParams,
     /// Output rows (working size) per band, 1..=1024: the depth of one band is held at a
-    /// time. Each band costs `2 radius + 3` rows of set-up.
+    /// time. A view's bands are one stream ([`crate::stereo::StereoView`]): the height
+    /// only sets this buffer, not the work.
     pub band_rows: usize,
     /// Largest working width (frame width / `downsample`, pixels, 8..=4096) the scratch is
     /// sized for.
@@ -139,7 +143,8 @@ pub(super) fn reproject_stereo<C: StageClock>(
     let rig = rig.map_err(FixError::Stereo)?;
     let need = rig.buffer_sizes();
     let (w, h) = rig.output_size();
-    if need.max_disparities > sc.max_disparities {
+    // The scratch holds whole groups of four disparities per column.
+    if need.max_disparities > 4 * sc.max_disparities.div_ceil(4) {
         return Err(FixError::BadConfig {
             field: "stereo.max_disparities",
         });
@@ -201,22 +206,28 @@ pub(super) fn reproject_stereo<C: StageClock>(
             continue;
         }
         acc.set_view_status(view, FrameStatus::Ok, false);
+        // One stream per view: the pair is checked once, and each band continues where
+        // the last one stopped.
+        clock.begin(Stage::Stereo);
+        let stream = rig.view(left, right.as_ref(), bytes, words);
+        clock.end(Stage::Stereo);
+        let mut stream = match stream {
+            Ok(s) => s,
+            Err(e) if per_view(&e) => {
+                *err = Some(e);
+                acc.set_view_status(view, FrameStatus::Ok, true);
+                continue;
+            }
+            Err(e) => return Err(FixError::Stereo(e)),
+        };
         let mut y0 = first;
         while y0 < h {
             let y1 = (y0 + sc.band_rows).min(h);
             let out = band.get_mut(..(y1 - y0) * w).ok_or(too_small)?;
             clock.begin(Stage::Stereo);
-            let r = rig.depth_band(left, right.as_ref(), y0, y1, bytes, words, out);
+            let r = stream.depth_rows(y0, y1, out);
             clock.end(Stage::Stereo);
-            let rep = match r {
-                Ok(rep) => rep,
-                Err(e) if per_view(&e) => {
-                    *err = Some(e);
-                    acc.set_view_status(view, FrameStatus::Ok, true);
-                    break;
-                }
-                Err(e) => return Err(FixError::Stereo(e)),
-            };
+            let rep = r.map_err(FixError::Stereo)?;
             ops.stereo_pixel_disparities += rep.pixel_disparities;
             ops.stereo_cost_updates += rep.cost_updates;
             ops.stereo_depth_px += rep.valid;

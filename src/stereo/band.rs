@@ -1,7 +1,18 @@
-//! The band matcher: running-sum SAD block matching of rows `y0..y1` (see the module docs
-//! of [`super`] for the pipeline).
+//! The band matcher: running-sum SAD block matching of the rows of one view, streamed top
+//! to bottom in bands (see the module docs of [`super`] for the pipeline).
+//!
+//! A [`StereoView`] holds one pair, the caller's scratch and where the stream stands: the
+//! filtered rows, the column sums and the last three disparity rows stay in the scratch
+//! between calls, so bands that follow each other cost no set-up rows, and the column sums
+//! of each row hold only the groups of four disparities its own range needs (a group that
+//! enters is summed over the window's rows once). The sums are exact, so a row's result
+//! does not depend on where the stream started or how the rows are cut into bands.
 
-use super::swar::{absdiff_u8x4, min2_u16x2, min_u16x2, pair, split_u8x4, word};
+use super::kernel::{
+    add_groups, column, decide, right_groups, slide_min, threshold, update_columns, ColumnParams,
+    LaneMin, UpdateCols, EDGE, UNIQUE,
+};
+use super::swar::{absdiff_u8x4, min2_u16x2, split_u8x4, word};
 use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
 use crate::image::ImageView;
 use crate::peak::parabola_min_offset;
@@ -11,6 +22,8 @@ const ONE_Q: u16 = 1 << DISPARITY_FRAC_BITS;
 const RING_MAX: usize = 2 * MAX_RADIUS as usize + 2;
 /// A right pixel's winner index before any candidate.
 const RB_NONE: u16 = u16::MAX;
+/// "No row" in the stream's state.
+const NONE: usize = usize::MAX;
 
 /// Bytes of the byte scratch for a working width `w` and radius `r`: per image a ring of 3
 /// reduced rows and a ring of `2r + 2` filtered rows.
@@ -18,29 +31,31 @@ pub(crate) fn bytes_len(w: usize, r: usize) -> usize {
     2 * w * (3 + 2 * r + 2)
 }
 
-/// `u16` elements of the word scratch for a working width `w` and `d` disparities, with
-/// `d4` = `d` rounded up to a multiple of 4: the right image's winners (cost and index,
-/// `2 w`), a ring of 3 disparity rows (`3 w`), then, on `u32` words (one element of slack
-/// for the alignment), the column costs (`w d4`) and the row's aggregated costs (`d4`) in
-/// the lane layout of [`lane`], and the same in disparity order (`d4`).
-pub(crate) fn words_len(w: usize, d: usize) -> usize {
-    let d4 = 4 * d.div_ceil(4);
-    d4 + 5 * w + (w + 1) * d4 + 1
+/// `u16` elements of the word scratch for a level width `w` and at most `groups` groups of
+/// four disparities in a row: the right image's winners (costs and indices of the even and
+/// of the odd right pixels, `4 ceil(w / 2)`), a ring of 3 disparity rows (`3 w`), then, on
+/// `u32` words (one element of slack for the alignment), the column sums (`2 groups` words
+/// per column) and the row's aggregated costs (`2 groups` words), in the lane layout of
+/// [`lane`].
+pub(crate) fn words_len(w: usize, groups: usize) -> usize {
+    4 * w.div_ceil(2) + 3 * w + 4 * groups * (w + 1) + 1
 }
 
-/// What one band did (sums over bands with [`BandReport::add`]).
+/// What one call did (sums over calls with [`BandReport::add`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct BandReport {
-    /// Rows matched (output rows and their one-row margins; sky rows are not matched).
+    /// Rows matched, at their level (output rows and the rows below them that the speckle
+    /// test reads, each once per stream; sky rows are not matched).
     pub rows_matched: u64,
     /// Pixel-disparities of the winner-take-all (columns with a full window times each
     /// row's range): aggregation, winner search and the left-right bookkeeping.
     pub pixel_disparities: u64,
-    /// Column-cost updates (one row in, one row out: two absolute differences each), the
-    /// band's disparity union times the columns per row, the set-up rows included.
+    /// Column-cost updates (one row in, one row out: two absolute differences each): each
+    /// row's groups of four disparities times the columns, a group's set-up (its sums over
+    /// the `2r + 1` rows of the window, when it enters) counted as `r + 1/2` updates.
     pub cost_updates: u64,
-    /// Output pixels with a disparity.
+    /// Output pixels (working size) with a disparity.
     pub valid: u64,
     /// Rejected: winner on the range edge or window outside the right image.
     pub rejected_edge: u64,
@@ -75,13 +90,25 @@ pub(crate) enum Output {
     DisparityQ4,
 }
 
-/// Row rings of both images: reduced rows (3) and filtered rows (`2r + 2`), tagged with
-/// `row + 1` (0: empty).
+/// Which rows the row rings hold (`row + 1`, 0: none).
+#[derive(Clone, Copy, Debug)]
+struct RingTags {
+    ds: [usize; 3],
+    f: [usize; RING_MAX],
+}
+
+impl RingTags {
+    const EMPTY: Self = Self {
+        ds: [0; 3],
+        f: [0; RING_MAX],
+    };
+}
+
+/// Row rings of both images at one level: reduced rows (3) and filtered rows (`2r + 2`).
 struct Rings<'b> {
     ds: [&'b mut [u8]; 2],
     filt: [&'b mut [u8]; 2],
-    ds_tag: [usize; 3],
-    f_tag: [usize; RING_MAX],
+    tags: &'b mut RingTags,
     w: usize,
     h: usize,
     k: usize,
@@ -89,10 +116,40 @@ struct Rings<'b> {
     cap: u8,
 }
 
-impl Rings<'_> {
+impl<'b> Rings<'b> {
+    /// The rings of a level of width `w` (level image height `h`, frames reduced by `k`,
+    /// `ring = 2r + 2` filtered rows) in `bytes` ([`bytes_len`] of the working width bounds
+    /// every level's).
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        bytes: &'b mut [u8],
+        tags: &'b mut RingTags,
+        w: usize,
+        h: usize,
+        k: usize,
+        ring: usize,
+        cap: u8,
+    ) -> Self {
+        // Lengths were checked by the caller; `min` keeps the splits free of panic paths.
+        let (ds_l, rest) = bytes.split_at_mut((3 * w).min(bytes.len()));
+        let (ds_r, rest) = rest.split_at_mut((3 * w).min(rest.len()));
+        let (f_l, rest) = rest.split_at_mut((ring * w).min(rest.len()));
+        let (f_r, _) = rest.split_at_mut((ring * w).min(rest.len()));
+        Self {
+            ds: [ds_l, ds_r],
+            filt: [f_l, f_r],
+            tags,
+            w,
+            h,
+            k,
+            ring,
+            cap,
+        }
+    }
+
     fn ensure_ds(&mut self, frames: [&ImageView<'_>; 2], q: usize) {
         let slot = q % 3;
-        if self.ds_tag.get(slot) == Some(&(q + 1)) {
+        if self.tags.ds.get(slot) == Some(&(q + 1)) {
             return;
         }
         let w = self.w;
@@ -101,7 +158,7 @@ impl Rings<'_> {
                 super::downsample_row(fr, self.k, q, o);
             }
         }
-        if let Some(t) = self.ds_tag.get_mut(slot) {
+        if let Some(t) = self.tags.ds.get_mut(slot) {
             *t = q + 1;
         }
     }
@@ -112,7 +169,7 @@ impl Rings<'_> {
         let k = (k.max(0) as usize).min(last);
         // `checked_rem`: no division-by-zero panic path in the flight build (ring >= 4).
         let slot = k.checked_rem(self.ring).unwrap_or(0);
-        if self.f_tag.get(slot) == Some(&(k + 1)) {
+        if self.tags.f.get(slot) == Some(&(k + 1)) {
             return slot;
         }
         let (a, b) = (k.saturating_sub(1), (k + 1).min(last));
@@ -126,7 +183,7 @@ impl Rings<'_> {
                 super::prefilter(row(a), row(k), row(b), self.cap, o);
             }
         }
-        if let Some(t) = self.f_tag.get_mut(slot) {
+        if let Some(t) = self.tags.f.get_mut(slot) {
             *t = k + 1;
         }
         slot
@@ -149,16 +206,6 @@ fn absdiff(a: u8, b: u8) -> u32 {
     u32::from(a.abs_diff(b))
 }
 
-/// Number of disparities `dmin + j` (`j < dn`) with the right pixel `x - dmin - j` inside.
-#[inline(always)]
-fn inside(x: usize, dmin: usize, dn: usize) -> usize {
-    if x < dmin {
-        0
-    } else {
-        (x - dmin + 1).min(dn)
-    }
-}
-
 /// Where the column cost of disparity index `j` lies in a column's words: `(word, shift)`.
 ///
 /// Indices `4g .. 4g + 4` share words `2g` (index `4g + 3` in the low `u16` lane, `4g + 1`
@@ -171,13 +218,8 @@ fn inside(x: usize, dmin: usize, dn: usize) -> usize {
 /// borrows from the other and plain `u32` adds and subtracts are exact lane by lane.
 #[inline(always)]
 fn lane(j: usize) -> (usize, u32) {
-    let g = 2 * (j / 4);
-    match j % 4 {
-        0 => (g + 1, 16),
-        1 => (g, 16),
-        2 => (g + 1, 0),
-        _ => (g, 0),
-    }
+    // Word 2g + 1 for j % 4 in {0, 2}, 2g for {1, 3}; the high lane for {0, 1}.
+    (2 * (j >> 2) + ((j & 1) ^ 1), (((j & 2) ^ 2) as u32) << 3)
 }
 
 /// Adds `add` to and subtracts `sub` from lane `j` of a column's words (bounds: [`lane`]).
@@ -200,16 +242,45 @@ fn full_groups(x: usize, dmin: usize, groups: usize) -> usize {
     }
 }
 
-/// Adds one filtered row pair's costs to the column sums (`gw` words per column, the lane
-/// layout of [`lane`]; a right pixel outside the image costs `oc`).
+/// Column sums of `n` groups of four disparities from `dmin` on: `cs` holds column `x`'s
+/// words at `x * stride .. x * stride + 2 n` (the lane layout of [`lane`]).
+#[derive(Clone, Copy)]
+struct Sums {
+    stride: usize,
+    n: usize,
+    dmin: usize,
+}
+
+/// Adds one filtered row pair's costs to the column sums (a right pixel outside the image
+/// costs `oc`).
 // A function of its own (called once per row): its loops get the registers to
 // themselves instead of spilling in the band loop.
 #[inline(never)]
-fn add_row(colsum: &mut [u32], gw: usize, dmin: usize, l: &[u8], r: &[u8], oc: u16) {
-    let groups = gw / 2;
+fn add_row(cs: &mut [u32], s: Sums, l: &[u8], r: &[u8], oc: u16) {
     let oc = u32::from(oc);
-    for (x, (col, &lp)) in colsum.chunks_exact_mut(gw.max(1)).zip(l).enumerate() {
-        let full = full_groups(x, dmin, groups);
+    let lanes = 4 * s.n;
+    let w = l.len().min(r.len());
+    let (n, stride, dmin) = (s.n, s.stride, s.dmin);
+    if n == 0 || w == 0 || 2 * n > stride || cs.len() < (w - 1) * stride + 2 * n {
+        return;
+    }
+    // From column `x_full` on every group's right pixels lie inside the image.
+    let x_full = (dmin + 4 * n - 1).min(w);
+    let (pc0, pr0, pl) = (cs.as_mut_ptr(), r.as_ptr(), l.as_ptr());
+    for x in x_full..w {
+        // Safety: as in `update_rows`: column x's `2 n` words lie inside `cs`, the right
+        // bytes `x - dmin - 4n + 1 ..= x - dmin` inside `r`.
+        unsafe {
+            let l4 = u32::from(*pl.add(x)) * 0x0101_0101;
+            add_groups(pc0.add(x * stride), pr0.add(x - dmin - 3), l4, n);
+        }
+    }
+    // Columns `0 .. x_full`: some groups partly or wholly outside (those cost `oc`).
+    for (x, &lp) in l.iter().enumerate().take(x_full) {
+        let Some(col) = cs.get_mut(x * stride..x * stride + 2 * n) else {
+            break;
+        };
+        let full = full_groups(x, dmin, n);
         // `hi >= 4 full`: the right pixels of the full groups are `hi - 4 full .. hi`.
         let hi = (x + 1).saturating_sub(dmin);
         let l4 = u32::from(lp) * 0x0101_0101;
@@ -223,7 +294,7 @@ fn add_row(colsum: &mut [u32], gw: usize, dmin: usize, l: &[u8], r: &[u8], oc: u
                 }
             }
         }
-        for j in 4 * full..2 * gw {
+        for j in 4 * full..lanes {
             let v = match hi.checked_sub(j + 1).and_then(|xr| r.get(xr)) {
                 Some(&rp) => absdiff(lp, rp),
                 None => oc,
@@ -233,60 +304,48 @@ fn add_row(colsum: &mut [u32], gw: usize, dmin: usize, l: &[u8], r: &[u8], oc: u
     }
 }
 
-/// One row in (`ln`, `rn`), one row out (`lo`, `ro`) of the column sums. Columns whose
-/// right pixel is outside add and remove the same constant: unchanged.
+/// One row in (`ln`, `rn`), one row out (`lo`, `ro`) of the column sums. Lanes whose right
+/// pixel is outside add and remove the same constant: unchanged.
 // A function of its own (called once per row): its loops get the registers to
 // themselves instead of spilling in the band loop.
 #[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn update_rows(
-    colsum: &mut [u32],
-    gw: usize,
-    dmin: usize,
-    ln: &[u8],
-    rn: &[u8],
-    lo: &[u8],
-    ro: &[u8],
-) {
-    let groups = gw / 2;
-    let lanes = 2 * gw;
+fn update_rows(cs: &mut [u32], s: Sums, ln: &[u8], rn: &[u8], lo: &[u8], ro: &[u8]) {
+    let w = ln.len().min(rn.len()).min(lo.len()).min(ro.len());
+    let (n, stride, dmin) = (s.n, s.stride, s.dmin);
+    if n == 0 || w == 0 || 2 * n > stride || cs.len() < (w - 1) * stride + 2 * n {
+        return;
+    }
     // From column `x_full` on every group's right pixels lie inside the image: the right
-    // pixels of column `x_full + i` are `i .. i + lanes` (`hi - 4 full .. hi` below).
-    let x_full = dmin + lanes.max(1) - 1;
-    if let (Some(cs), Some(lf), Some(of)) = (
-        colsum.get_mut(x_full * gw..),
-        ln.get(x_full..),
-        lo.get(x_full..),
-    ) {
-        for ((col, (&a, &b)), (wn, wo)) in cs
-            .chunks_exact_mut(gw.max(1))
-            .zip(lf.iter().zip(of))
-            .zip(rn.windows(lanes.max(1)).zip(ro.windows(lanes.max(1))))
-        {
-            let (a4, b4) = (u32::from(a) * 0x0101_0101, u32::from(b) * 0x0101_0101);
-            for (pair, (cn, co)) in col
-                .chunks_exact_mut(2)
-                .zip(wn.chunks_exact(4).rev().zip(wo.chunks_exact(4).rev()))
-            {
-                let (en, on) = split_u8x4(absdiff_u8x4(a4, word(cn)));
-                let (eo, oo) = split_u8x4(absdiff_u8x4(b4, word(co)));
-                if let [pe, po] = pair {
-                    // Add first, then subtract: exact per lane (bounds: `lane`).
-                    *pe = *pe + en - eo;
-                    *po = *po + on - oo;
-                }
-            }
-        }
+    // pixels of group k at column x are `x - dmin - 4k - 3 ..= x - dmin - 4k`.
+    let x_full = (dmin + 4 * n - 1).min(w);
+    if x_full < w {
+        let x = x_full;
+        let mut u = UpdateCols {
+            pl: ln.as_ptr().wrapping_add(x),
+            pm: lo.as_ptr().wrapping_add(x),
+            pn: rn.as_ptr().wrapping_add(x - dmin - 3),
+            po: ro.as_ptr().wrapping_add(x - dmin - 3),
+            pc: cs.as_mut_ptr().wrapping_add(x * stride),
+            stride: 4 * stride,
+            cols: w - x,
+            n,
+        };
+        // Safety: for every column `x_full <= x < w`: its `2 n` words lie inside `cs`
+        // (checked above), its left bytes inside `ln` and `lo`, and its right bytes `x -
+        // dmin - 4n + 1 ..= x - dmin` (>= 0 as x >= x_full) inside `rn` and `ro` (`w` bytes
+        // each); the column sums' bounds are those of `lane`.
+        unsafe { update_columns(&mut u) };
     }
     // Columns `dmin .. x_full`: some groups partly outside.
-    for (x, (col, (&a, &b))) in colsum
-        .chunks_exact_mut(gw.max(1))
-        .zip(ln.iter().zip(lo))
-        .enumerate()
-        .take(x_full)
-        .skip(dmin)
-    {
-        let full = full_groups(x, dmin, groups);
+    for x in dmin..x_full {
+        let (Some(col), Some(&a), Some(&b)) = (
+            cs.get_mut(x * stride..x * stride + 2 * n),
+            ln.get(x),
+            lo.get(x),
+        ) else {
+            break;
+        };
+        let full = full_groups(x, dmin, n);
         // x >= dmin: the right pixel of index j is hi - 1 - j, inside for j < hi.
         let hi = x + 1 - dmin;
         let (a4, b4) = (u32::from(a) * 0x0101_0101, u32::from(b) * 0x0101_0101);
@@ -306,7 +365,7 @@ fn update_rows(
                 }
             }
         }
-        for j in 4 * full..(2 * gw).min(hi) {
+        for j in 4 * full..(4 * n).min(hi) {
             let xr = hi - 1 - j;
             if let (Some(&pn), Some(&po)) = (rn.get(xr), ro.get(xr)) {
                 lane_add_sub(col, j, absdiff(a, pn), absdiff(b, po));
@@ -320,195 +379,319 @@ struct RowMatch {
     w: usize,
     r: usize,
     /// Words per column of the column sums.
-    gw: usize,
-    dmin: usize,
-    /// Row range, as indices into the band's disparities.
-    jl: usize,
-    jh: usize,
+    stride: usize,
+    /// First word of the row's groups in a column.
+    w0: usize,
+    /// Groups of four disparities holding the row's range.
+    groups: usize,
+    /// Disparity of the first group's index 0.
+    d0: usize,
+    /// The row's range, indices relative to `d0`.
+    lo: usize,
+    hi: usize,
     uniq: u32,
     gap: u32,
     lr: bool,
 }
 
+/// Added to the row's aggregated costs of indices outside its range (and, for one pass, to
+/// the runner-up's excluded indices): every aggregated cost is below it (at most
+/// `(2r + 1)^2 2 cap` <= 28,350, [`lane`]), and a biased one stays below 2^16 while the
+/// window slides (28,350 + 2^15 + 1,890 < 2^16), so a biased lane never wins a minimum
+/// that an unbiased one takes part in. The right image's winners start at this cost, so a
+/// biased lane never replaces one either.
+const BIAS: u32 = 0x8000;
+
+/// Adds `v` to the lane of index `j` (relative to the row's first group) of the row's words.
+#[inline(always)]
+fn lane_add(ap: &mut [u32], j: usize, v: u32) {
+    let (i, s) = lane(j);
+    if let Some(a) = ap.get_mut(i) {
+        *a += v << s;
+    }
+}
+
+/// The cost of index `j` (relative to the row's first group) in the row's words.
+#[inline(always)]
+fn lane_cost(ap: &[u32], j: usize) -> u32 {
+    let (i, s) = lane(j);
+    ap.get(i).map_or(u32::MAX, |&v| (v >> s) & 0xffff)
+}
+
+/// The smallest cost of the row's words outside indices `j - 1 ..= j + 1` (relative to
+/// the row's first group, inside its range, `j >= 1`); a result of [`BIAS`] or more means
+/// none. The three lanes lie in group `(j - 1) / 4` and, from `(j - 1) % 4 = 2` on, the
+/// next: those four words are taken with the three lanes masked (`0xffff`, above every
+/// cost), the others as they are.
+fn runner_up(ap: &[u32], j: usize) -> u32 {
+    // Per `(j - 1) % 4`: masks of words 2g, 2g + 1, 2g + 2, 2g + 3 (word 2g: index 4g + 3
+    // low, 4g + 1 high; word 2g + 1: 4g + 2 low, 4g high; [`lane`]).
+    static MASKS: [[u32; 4]; 4] = [
+        // 4g, 4g + 1, 4g + 2.
+        [0xffff_0000, 0xffff_ffff, 0, 0],
+        // 4g + 1, 4g + 2, 4g + 3.
+        [0xffff_ffff, 0x0000_ffff, 0, 0],
+        // 4g + 2, 4g + 3, 4g + 4.
+        [0x0000_ffff, 0x0000_ffff, 0, 0xffff_0000],
+        // 4g + 3, 4g + 4, 4g + 5.
+        [0x0000_ffff, 0, 0xffff_0000, 0xffff_0000],
+    ];
+    let (g, c) = ((j - 1) >> 2, (j - 1) & 3);
+    let w1 = (2 * g).min(ap.len());
+    let w2 = (w1 + 4).min(ap.len());
+    let mut m = u32::MAX;
+    for &v in ap.get(..w1).unwrap_or(&[]) {
+        m = min2_u16x2(m, v);
+    }
+    for &v in ap.get(w2..).unwrap_or(&[]) {
+        m = min2_u16x2(m, v);
+    }
+    if let Some(masks) = MASKS.get(c) {
+        for (&v, &k) in ap.get(w1..w2).unwrap_or(&[]).iter().zip(masks) {
+            m = min2_u16x2(m, v | k);
+        }
+    }
+    (m & 0xffff).min(m >> 16)
+}
+
+/// The slide and lane minima of a column before the steady ones ([`match_row`]): `x == r`
+/// (the first window, no slide) or right pixels partly outside the image.
+#[inline(never)]
+fn first_columns(
+    ap: &mut [u32],
+    cs: *const u32,
+    gw: usize,
+    w0: usize,
+    x: usize,
+    r: usize,
+    groups: usize,
+) -> LaneMin {
+    let ap_ptr = ap.as_mut_ptr();
+    // Safety: as in [`match_row`] (checked once per row): columns `x + r` and `x - r - 1`
+    // (`x > r`) of the column sums hold words `w0 .. w0 + 2 groups`; `ap` has `2 groups`
+    // words and is not part of them.
+    unsafe {
+        if x > r {
+            let ci = cs.add((x + r) * gw + w0);
+            let co = cs.add((x - r - 1) * gw + w0);
+            slide_min::<true>(ap_ptr, ci, co, groups)
+        } else {
+            slide_min::<false>(ap_ptr, cs, cs, groups)
+        }
+    }
+}
+
+/// The right image's winners of a column before the steady ones, `base = x - d0`: the
+/// groups whose four right pixels are all inside (`4k + 3 <= base`), then the inside lanes
+/// of the next one at a time.
+#[inline(never)]
+fn right_first_columns(
+    ap: &[u32],
+    rb: &mut [u16],
+    half: usize,
+    base: usize,
+    groups: usize,
+    lo: usize,
+    hi: usize,
+) {
+    if rb.len() < 4 * half || ap.len() < 2 * groups {
+        return;
+    }
+    let n = if base >= 3 {
+        ((base - 3) / 4 + 1).min(groups)
+    } else {
+        0
+    };
+    if n > 0 {
+        let b = base - 3;
+        let rbp = rb.as_mut_ptr();
+        // Safety: `ap` has `2 groups >= 2 n` words; for `k < n` the pixels `b - 4k ..= b -
+        // 4k + 3` lie in `0..=base`, `base < w <= 2 half`, so their costs (`(p & 1) half +
+        // (p >> 1)`, two at a time) and indices (`4 half` bytes further) lie inside `rb`.
+        unsafe {
+            let pe = rbp.add((b & 1) * half + (b >> 1));
+            let pd = rbp.add(((b + 1) & 1) * half + ((b + 1) >> 1));
+            right_groups(ap.as_ptr(), pe, pd, 4 * half, n);
+        }
+    }
+    if n < groups {
+        for j in (4 * n).max(lo)..=hi.min(base) {
+            let a = lane_cost(ap, j);
+            let xr = base - j;
+            let p = (xr & 1) * half + (xr >> 1);
+            if let Some(&c) = rb.get(p) {
+                if a < u32::from(c) {
+                    if let Some(c) = rb.get_mut(p) {
+                        *c = a as u16;
+                    }
+                    if let Some(i) = rb.get_mut(p + 2 * half) {
+                        *i = j as u16;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A column whose winner `key` (`cost << 16 | index`) passed [`decide`]: the exact
+/// runner-up more than one index away ([`runner_up`]) against the uniqueness threshold,
+/// then the sub-pixel disparity (Q4, at least 1) or `None`.
+#[cold]
+#[inline(never)]
+fn accept(ap: &[u32], key: u32, prm: &ColumnParams, d0: usize) -> Option<u16> {
+    let (best, j) = (key >> 16, (key & 0xffff) as usize);
+    if j == 0 || runner_up(ap, j) < threshold(best, prm) {
+        return None;
+    }
+    let frac = parabola_min_offset(
+        lane_cost(ap, j - 1) as i32,
+        best as i32,
+        lane_cost(ap, j + 1) as i32,
+        i32::from(ONE_Q),
+    );
+    let q = ((d0 + j) as i32 * i32::from(ONE_Q) + frac).max(1);
+    Some(q.min(i32::from(u16::MAX)) as u16)
+}
+
 /// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none): `aggw`
-/// holds the row's aggregated costs in the lane layout of [`lane`], `nat` the same in
-/// disparity order, `rbc` and `rbd` the right image's winners (cost and index, right pixel
-/// `xr` at `w - 1 - xr`).
+/// holds the row's aggregated costs (the whole groups of four holding its range, the lane
+/// layout of [`lane`], indices outside the range biased by [`BIAS`]), `rb` the right
+/// image's winners ([`right_groups`]).
 ///
 /// Per column, one pass over the row's words slides the aggregation window one column on
-/// and writes the costs in disparity order; the winner and the right image's winners are
-/// then scanned two indices at a time ([`min_u16x2`]): each lane keeps its first strict
-/// minimum, and of the two lanes the smaller cost, on a tie the smaller index, is the
-/// first minimum of the whole range, what a scan in index order keeping strict
-/// improvements finds. A right pixel sees its candidates in increasing index, so keeping
-/// strict improvements per right pixel is the first of its smallest costs too. Indices are
-/// below 2^15 (at most the working width, [`StereoRig::new`]), so [`RB_NONE`] is never one.
+/// and keeps, per lane, its first strict minimum ([`min_u16x2`]): every lane sees its
+/// indices in increasing order, so of the four lanes the smaller cost, on a tie the smaller
+/// index, is the first minimum of the whole range, what a scan in index order keeping
+/// strict improvements finds. A second pass gives every right pixel its candidate of this
+/// column; a right pixel sees its candidates in increasing index (one per column), so
+/// keeping strict improvements is the first of its smallest costs too. The runner-up more
+/// than one index from the winner is first bounded by the other lanes' minima (enough to
+/// reject most textureless windows) and only computed exactly when that does not decide.
+/// Indices are below 2^15 (at most the working width, [`StereoRig::new`]), so [`RB_NONE`]
+/// is never one.
 // A function of its own (called once per row): its loops get the registers to
 // themselves instead of spilling in the band loop.
 #[inline(never)]
-#[allow(clippy::too_many_arguments)]
 fn match_row(
     m: &RowMatch,
     colsum: &[u32],
     aggw: &mut [u32],
-    nat: &mut [u16],
-    rbc: &mut [u16],
-    rbd: &mut [u16],
+    rb: &mut [u16],
     disp: &mut [u16],
     rep: &mut BandReport,
 ) {
     disp.fill(0);
-    let len = m.jh + 1 - m.jl;
-    // The whole groups of four holding the row's range.
-    let (w0, w1) = (2 * (m.jl / 4), 2 * (m.jh / 4) + 2);
-    let nw = w1 - w0;
-    let groups = nw / 2;
-    let first = m.jl - 4 * (m.jl / 4);
-    let (w, r, gw) = (m.w, m.r, m.gw);
+    let groups = m.groups;
+    let (w0, nw) = (m.w0, 2 * groups);
+    let (w, r, gw) = (m.w, m.r, m.stride);
+    let half = w.div_ceil(2);
+    let (lo, hi) = (m.lo, m.hi);
     // Everything the column loop reads or writes through pointers, checked once per row.
     if gw == 0
-        || w1 > gw
+        || groups == 0
+        || lo > hi
+        || hi >= 4 * groups
+        || w0 + nw > gw
         || colsum.len() < w * gw
         || aggw.len() < nw
-        || nat.len() < 2 * nw
-        || first + len > 2 * nw
-        || rbc.len() < w
-        || rbd.len() < w
+        || rb.len() < 4 * half
         || disp.len() < w
         || w < 2 * r + 1
     {
         return;
     }
-    let aggw = aggw.get_mut(..nw).unwrap_or(&mut []);
-    aggw.fill(0);
+    let ap = aggw.get_mut(..nw).unwrap_or(&mut []);
+    ap.fill(0);
     for c in colsum.chunks_exact(gw).take(2 * r + 1) {
-        for (a, &v) in aggw.iter_mut().zip(c.get(w0..w1).unwrap_or(&[])) {
+        for (a, &v) in ap.iter_mut().zip(c.get(w0..w0 + nw).unwrap_or(&[])) {
             *a += v;
         }
     }
-    if m.lr {
-        rbc.fill(u16::MAX);
-        rbd.fill(RB_NONE);
+    for j in (0..lo).chain(hi + 1..4 * groups) {
+        lane_add(ap, j, BIAS);
     }
-    let d0 = m.dmin + m.jl;
-    let (cs, ap, np) = (colsum.as_ptr(), aggw.as_mut_ptr(), nat.as_mut_ptr());
-    let (rbc_p, rbd_p) = (rbc.as_mut_ptr(), rbd.as_mut_ptr());
+    if m.lr {
+        let (c, i) = rb.split_at_mut((2 * half).min(rb.len()));
+        c.fill(BIAS as u16);
+        i.iter_mut().take(2 * half).for_each(|v| *v = RB_NONE);
+    }
+    let dmin = m.d0;
+    let lr_on = m.lr;
+    let cs = colsum.as_ptr();
+    let rbp = rb.as_mut_ptr();
+    // From column `x_full` on, every group's right pixels lie inside the image; from
+    // `x_steady` on (also past the first column, which has no slide) each column is one
+    // [`column`] call.
+    let x_full = dmin + 4 * groups - 1;
+    let x_steady = x_full.max(r + 1);
+    let (mut pe, mut pd) = (rbp, rbp);
+    let mut prm = ColumnParams {
+        n: groups as u32,
+        off: (4 * half) as u32,
+        lo: lo as u32,
+        hi: hi as u32,
+        lim: 0,
+        um1: 99 - m.uniq,
+        den: 100 - m.uniq,
+        gap: m.gap,
+    };
     let (mut edge, mut uniq) = (0u64, 0u64);
     for x in r..w - r {
-        // The right pixel x - d0 - j sees cost j at its own disparity d0 + j: for the
-        // first `n` indices it lies inside the image, at `w - 1 - (x - d0) + j` of `rbc`
-        // and `rbd`: both run forward with the costs (`n` is 0 for `x < d0`).
-        let n = if m.lr { inside(x, d0, len) } else { 0 };
-        let t0 = if n > 0 { w - 1 - (x - d0) } else { 0 };
-        // Safety: checked above for the row: column `x + r < w` and column `x - r - 1`
-        // (`x > r`) of `colsum` (at least `w gw` words) hold words `w0 .. w0 + nw <= gw`;
-        // `aggw` has `nw` words and `nat` `2 nw` elements, aligned to 4 bytes (the words
-        // it was split from), written as whole `u32` at even indices `4g`, `4g + 2`;
-        // the costs read are `nat[first .. first + len]` (`first + len <= 2 nw`), two at a
-        // time as one unaligned `u32`; `t0 + n <= w` (`n <= x - d0 + 1`), the length of
-        // `rbc` and `rbd`. Nothing else refers to these buffers during the block, and the
-        // slice `agg` made from `nat` lives only within it.
-        let (best, bi, agg) = unsafe {
-            if x > r {
-                let ci = cs.add((x + r) * gw + w0);
-                let co = cs.add((x - r - 1) * gw + w0);
-                for g in 0..groups {
-                    // Exact per lane (bounds: `lane`).
-                    let e = *ap.add(2 * g) + *ci.add(2 * g) - *co.add(2 * g);
-                    let d = *ap.add(2 * g + 1) + *ci.add(2 * g + 1) - *co.add(2 * g + 1);
-                    *ap.add(2 * g) = e;
-                    *ap.add(2 * g + 1) = d;
-                    nat_group(np.add(4 * g), e, d);
-                }
+        let ap_ptr = ap.as_mut_ptr();
+        // The largest index whose window lies inside the right image (x >= d + r).
+        prm.lim = (x - r) as i32 - dmin as i32;
+        let res = if lr_on && x >= x_steady {
+            // Every group's right pixels inside: pixels `b - 4k ..= b - 4k + 3`, `b = x -
+            // dmin - 3`. One column on, pixel b + 1 is the last column's pixel b + 1 and
+            // pixel b + 2 the one after the last column's pixel b in its array.
+            if x == x_steady {
+                let b = x - dmin - 3;
+                pe = rbp.wrapping_add((b & 1) * half + (b >> 1));
+                pd = rbp.wrapping_add(((b + 1) & 1) * half + ((b + 1) >> 1));
             } else {
-                for g in 0..groups {
-                    nat_group(np.add(4 * g), *ap.add(2 * g), *ap.add(2 * g + 1));
-                }
+                (pe, pd) = (pd, pe.wrapping_add(1));
             }
-            let agg = np.add(first) as *const u16;
-            let (rc, rd) = (rbc_p.add(t0), rbd_p.add(t0));
-            let (mut bc, mut bj) = (u32::MAX, u32::MAX);
-            let mut jj = 0x0001_0000u32;
-            let mut k = 0;
-            while k < n / 2 {
-                let a = agg.add(2 * k).cast::<u32>().read_unaligned();
-                let (cp, dp) = (rc.add(2 * k).cast::<u32>(), rd.add(2 * k).cast::<u32>());
-                let (c, d) = min_u16x2(cp.read_unaligned(), dp.read_unaligned(), a, jj);
-                cp.write_unaligned(c);
-                dp.write_unaligned(d);
-                (bc, bj) = min_u16x2(bc, bj, a, jj);
-                // Two indices further in both lanes (below 2^15: no carry between them).
-                jj += 0x0002_0002;
-                k += 1;
+            // Safety: checked above for the row: columns `x + r < w` and `x - r - 1`
+            // (`x > r`) of `colsum` (at least `w gw` words) hold words `w0 .. w0 + nw <=
+            // gw`; `ap` has `nw` words and is not part of `colsum`; `pe`, `pd` point at the
+            // costs of pixels `b` and `b + 1` (`(p & 1) half + (p >> 1)`), and for `k <
+            // groups` the pixels `b - 4k ..= b - 4k + 3` lie in `0..=x - dmin` (x >= x_full)
+            // and below `w <= 2 half`, so their costs (two at a time) and indices (`2 half`
+            // elements, `4 half` bytes further) lie inside `rb`'s `4 half` elements.
+            unsafe {
+                column(
+                    ap_ptr,
+                    cs.add((x + r) * gw + w0),
+                    cs.add((x - r - 1) * gw + w0),
+                    pe,
+                    pd,
+                    &prm,
+                )
             }
-            while k < len / 2 {
-                let a = agg.add(2 * k).cast::<u32>().read_unaligned();
-                (bc, bj) = min_u16x2(bc, bj, a, jj);
-                jj += 0x0002_0002;
-                k += 1;
+        } else {
+            let acc = first_columns(ap, cs, gw, w0, x, r, groups);
+            if lr_on && x >= dmin {
+                right_first_columns(ap, rb, half, x - dmin, groups, lo, hi);
             }
-            // Of the two lanes (even and odd indices), the smaller cost, then the first
-            // index; then an odd range's last index.
-            let (lo, hi) = ((bc & 0xffff, bj & 0xffff), (bc >> 16, bj >> 16));
-            let (mut best, mut bi) = if hi.0 < lo.0 || (hi.0 == lo.0 && hi.1 < lo.1) {
-                hi
-            } else {
-                lo
-            };
-            if len % 2 == 1 {
-                let a = u32::from(*agg.add(len - 1));
-                if a < best {
-                    best = a;
-                    bi = (len - 1) as u32;
-                }
-            }
-            // An odd count's last right pixel.
-            if n % 2 == 1 {
-                let j = n - 1;
-                let a = *agg.add(j);
-                if a < *rc.add(j) {
-                    *rc.add(j) = a;
-                    *rd.add(j) = j as u16;
-                }
-            }
-            (best, bi, core::slice::from_raw_parts(agg, len))
+            decide(&acc, &prm)
         };
-        let best = best as u16;
-        let bi = bi as usize;
-        let d = d0 + bi;
-        if bi == 0 || bi + 1 >= len || x < d + m.r {
-            edge += 1;
-            continue;
-        }
-        // The runner-up more than one index away (bi >= 1 here).
-        let lo_min = agg.get(..bi - 1).map_or(u16::MAX, min_of);
-        let hi_min = agg.get(bi + 2..).map_or(u16::MAX, min_of);
-        let second = lo_min.min(hi_min);
-        if second != u16::MAX {
-            let (b, s) = (u32::from(best), u32::from(second));
-            if s * (100 - m.uniq) < b * 100 || s < b + m.gap {
-                uniq += 1;
-                continue;
-            }
-        }
-        let (Some(&lc), Some(&rc)) = (agg.get(bi - 1), agg.get(bi + 1)) else {
-            continue;
-        };
-        let frac = parabola_min_offset(
-            i32::from(lc),
-            i32::from(best),
-            i32::from(rc),
-            i32::from(ONE_Q),
-        );
-        let q = (d as i32 * i32::from(ONE_Q) + frac).max(1);
-        if let Some(o) = disp.get_mut(x) {
-            *o = q.min(i32::from(u16::MAX)) as u16;
+        match res {
+            EDGE => edge += 1,
+            UNIQUE => uniq += 1,
+            key => match accept(ap, key, &prm, dmin) {
+                Some(q) => {
+                    if let Some(o) = disp.get_mut(x) {
+                        *o = q;
+                    }
+                }
+                None => uniq += 1,
+            },
         }
     }
-    rep.pixel_disparities += ((m.w - 2 * m.r) * len) as u64;
+    rep.pixel_disparities += ((w - 2 * r) * (hi + 1 - lo)) as u64;
     rep.rejected_edge += edge;
     rep.rejected_unique += uniq;
-    if m.lr {
+    if lr_on {
         let mut lr = 0u64;
         for (x, o) in disp.iter_mut().enumerate() {
             if *o == 0 {
@@ -516,14 +699,16 @@ fn match_row(
             }
             let dl = usize::from((*o + ONE_Q / 2) >> DISPARITY_FRAC_BITS);
             // A right pixel no candidate reached has disparity 0.
-            let dr = |j: u16| match j {
-                RB_NONE => 0,
-                j => d0 + usize::from(j),
-            };
             let ok = x
                 .checked_sub(dl)
-                .and_then(|xr| rbd.get(m.w - 1 - xr))
-                .is_some_and(|&j| dr(j).abs_diff(dl) <= 1);
+                .and_then(|xr| rb.get(2 * half + (xr & 1) * half + (xr >> 1)))
+                .is_some_and(|&j| {
+                    let dr = match j {
+                        RB_NONE => 0,
+                        j => dmin + usize::from(j),
+                    };
+                    dr.abs_diff(dl) <= 1
+                });
             if !ok {
                 *o = 0;
                 lr += 1;
@@ -533,84 +718,100 @@ fn match_row(
     }
 }
 
-/// Writes a group's aggregated words `e` = (4g + 3 | 4g + 1) and `d` = (4g + 2 | 4g) to
-/// `n[0..4]` as the costs of 4g, 4g + 1, 4g + 2, 4g + 3 (two `u32`, little-endian).
-///
-/// # Safety
-/// `n` points at four writable `u16` aligned to 4 bytes.
-#[inline(always)]
-unsafe fn nat_group(n: *mut u16, e: u32, d: u32) {
-    let n = n.cast::<u32>();
-    // Safety: the caller's contract (four aligned, writable `u16`).
-    unsafe {
-        n.write((d >> 16) | (e & 0xffff_0000));
-        n.add(1).write((d & 0xffff) | (e << 16));
-    }
-}
-
-/// The smallest of `s` (`u16::MAX` when empty), two at a time ([`min2_u16x2`]).
-#[inline(always)]
-fn min_of(s: &[u16]) -> u16 {
-    let pairs = s.chunks_exact(2);
-    let tail = pairs.remainder().first().copied().unwrap_or(u16::MAX);
-    let m = pairs.fold(u32::MAX, |m, c| min2_u16x2(m, pair(c)));
-    (m as u16).min((m >> 16) as u16).min(tail)
-}
-
-/// Speckle filter and output of row `q` from the disparity rows above, at and below.
-#[allow(clippy::too_many_arguments)]
+/// Speckle filter and output of a row from the disparity rows above, at and below (level
+/// pixels) into `out` (working size: each level pixel covers `2^level` pixels, disparities
+/// scaled to working-size pixels; `out` holds zeros where there is no data). Returns the
+/// level pixels with data.
+// A function of its own (called once per row): its loop keeps its state in registers.
+#[inline(never)]
 fn finish_row(
     above: Option<&[u16]>,
     cur: &[u16],
     below: Option<&[u16]>,
-    support: u8,
-    mode: Output,
-    depth_k: u32,
+    fin: &Finish,
     out: &mut [u16],
     rep: &mut BandReport,
-) {
-    let near = |a: u16, b: u16| u32::from(b != 0 && a.abs_diff(b) <= ONE_Q);
-    // Neighbours outside the row or the image count as "no data" (0), which is never near.
-    let at = |row: Option<&[u16]>, i: Option<usize>| -> u16 {
-        match (row, i) {
-            (Some(r), Some(i)) => r.get(i).copied().unwrap_or(0),
-            _ => 0,
-        }
-    };
+) -> u64 {
+    // Neighbours outside the row or the image count as "no data" (0), which is never near:
+    // a missing row above or below reads as `cur` with its neighbours not counted.
+    match (above, below) {
+        (Some(a), Some(b)) => finish_row_in::<true, true>(a, cur, b, fin, out, rep),
+        (Some(a), None) => finish_row_in::<true, false>(a, cur, cur, fin, out, rep),
+        (None, Some(b)) => finish_row_in::<false, true>(cur, cur, b, fin, out, rep),
+        (None, None) => finish_row_in::<false, false>(cur, cur, cur, fin, out, rep),
+    }
+}
+
+/// [`finish_row`] with the rows above (`A`) and below (`B`) present or not.
+#[inline(always)]
+fn finish_row_in<const A: bool, const B: bool>(
+    above: &[u16],
+    cur: &[u16],
+    below: &[u16],
+    fin: &Finish,
+    out: &mut [u16],
+    rep: &mut BandReport,
+) -> u64 {
+    let w = cur.len();
+    let s = 1usize << fin.level;
+    let support = u32::from(fin.support);
     let (mut valid, mut speck) = (0u64, 0u64);
-    for (x, (o, &d)) in out.iter_mut().zip(cur).enumerate() {
-        *o = 0;
+    if above.len() < w || below.len() < w || out.len() < w * s {
+        return 0;
+    }
+    let (pa, pc, pb) = (above.as_ptr(), cur.as_ptr(), below.as_ptr());
+    for x in 0..w {
+        // Safety: `x < w` and every row has at least `w` elements (checked above).
+        let d = unsafe { *pc.add(x) };
         if d == 0 {
             continue;
         }
         if support > 0 {
-            let (l, r) = (x.checked_sub(1), Some(x + 1));
-            let mut n = near(d, at(Some(cur), l)) + near(d, at(Some(cur), r));
-            for row in [above, below] {
-                n += near(d, at(row, l)) + near(d, at(row, Some(x))) + near(d, at(row, r));
-            }
-            if n < u32::from(support) {
+            // Within 1 px: `v - d + 16` in `0..=32` (as `u16`, wrapping), and not 0.
+            let near =
+                |v: u16| u32::from(v != 0 && v.wrapping_sub(d).wrapping_add(ONE_Q) <= 2 * ONE_Q);
+            let (l, r) = (x > 0, x + 1 < w);
+            // Safety: `x - 1` only when `x > 0`, `x + 1` only when `x + 1 < w`.
+            let at = |p: *const u16, i: usize, ok: bool| if ok { unsafe { *p.add(i) } } else { 0 };
+            // Counted until `support` is reached (the same verdict as counting all 8).
+            let mut n = 0;
+            let mut reached = |v: u16| {
+                n += near(v);
+                n >= support
+            };
+            let ok = reached(at(pc, x.wrapping_sub(1), l))
+                || reached(at(pc, x + 1, r))
+                || (A && reached(at(pa, x, true)))
+                || (B && reached(at(pb, x, true)))
+                || (A && reached(at(pa, x.wrapping_sub(1), l)))
+                || (A && reached(at(pa, x + 1, r)))
+                || (B && reached(at(pb, x.wrapping_sub(1), l)))
+                || (B && reached(at(pb, x + 1, r)));
+            if !ok {
                 speck += 1;
                 continue;
             }
         }
-        let v = match mode {
-            Output::DisparityQ4 => d,
+        // Working-size disparity, Q4 (at most 2^18: no overflow).
+        let dw = u32::from(d) << fin.level;
+        let v = match fin.mode {
+            Output::DisparityQ4 => dw.min(u32::from(u16::MAX)) as u16,
             Output::DepthMm => {
-                let z = (depth_k + u32::from(d) / 2)
-                    .checked_div(u32::from(d))
-                    .unwrap_or(0);
+                // depth_k < 4e9 and dw / 2 < 2^17: no overflow.
+                let z = (fin.depth_k + dw / 2).checked_div(dw).unwrap_or(0);
                 if z == 0 || z > u32::from(u16::MAX) {
                     continue;
                 }
                 z as u16
             }
         };
-        *o = v;
+        if let Some(o) = out.get_mut(x * s..x * s + s) {
+            o.fill(v);
+        }
         valid += 1;
     }
-    rep.valid += valid;
     rep.rejected_speckle += speck;
+    valid
 }
 
 /// Checks the inputs of a band; returns the two frames.
@@ -641,7 +842,453 @@ pub(crate) fn check_inputs<'f, 'a>(
     Ok([left, right])
 }
 
-/// Rows `y0..y1` of the working-size output into `out` (`(y1 - y0) * width`, row-major).
+/// Which column sums the scratch holds: those of row `row` ([`NONE`]: none) for groups
+/// `g_lo..g_hi`, group `g` at words `2 (g - base)` of each column.
+#[derive(Clone, Copy, Debug)]
+struct SumsState {
+    row: usize,
+    g_lo: usize,
+    g_hi: usize,
+    base: usize,
+}
+
+/// Where a view's stream stands; the scratch holds the rows and sums it names.
+#[derive(Clone, Copy, Debug)]
+struct Stream {
+    /// Level of the rows matched so far ([`NONE`]: nothing yet).
+    level: usize,
+    /// The next row (of the level's image) to match; rows `next - 3 .. next` are in the
+    /// disparity ring where `disp_tag` says so.
+    next: usize,
+    rings: RingTags,
+    disp_tag: [usize; 3],
+    sums: SumsState,
+}
+
+impl Stream {
+    const START: Self = Self {
+        level: NONE,
+        next: 0,
+        rings: RingTags::EMPTY,
+        disp_tag: [0; 3],
+        sums: SumsState {
+            row: NONE,
+            g_lo: 0,
+            g_hi: 0,
+            base: 0,
+        },
+    };
+}
+
+/// One view's stereo pair matched row band by row band, top to bottom, in the caller's
+/// scratch ([`StereoRig::view`]). Consecutive bands continue where the last one stopped;
+/// any other band starts afresh (its set-up rows once more): the output is the same.
+pub struct StereoView<'a> {
+    rig: &'a StereoRig,
+    frames: [&'a ImageView<'a>; 2],
+    bytes: &'a mut [u8],
+    words: &'a mut [u16],
+    st: Stream,
+}
+
+/// How rows are finished: level width `w`, speckle support, output kind, depth constant
+/// (working size) and the level (disparities are scaled by `2^level`, pixels expanded).
+struct Finish {
+    w: usize,
+    support: u8,
+    mode: Output,
+    depth_k: u32,
+    level: usize,
+}
+
+/// Working rows `rows` (all of level `level`) of a band whose output starts at working row
+/// `y0`, `w` working pixels per row.
+struct Band {
+    level: usize,
+    rows: core::ops::Range<usize>,
+    y0: usize,
+    w: usize,
+}
+
+impl<'a> StereoView<'a> {
+    /// Checks the pair and the scratch sizes ([`StereoRig::buffer_sizes`]).
+    pub(crate) fn new(
+        rig: &'a StereoRig,
+        left: &'a ImageView<'a>,
+        right: Option<&'a ImageView<'a>>,
+        bytes: &'a mut [u8],
+        words: &'a mut [u16],
+    ) -> Result<Self, StereoError> {
+        let frames = check_inputs(rig, left, right)?;
+        let sizes = rig.buffer_sizes();
+        for (buffer, needed, got) in [
+            (StereoBuffer::Bytes, sizes.bytes, bytes.len()),
+            (StereoBuffer::Words, sizes.words, words.len()),
+        ] {
+            if got < needed {
+                return Err(StereoError::BufferSize {
+                    buffer,
+                    needed,
+                    got,
+                });
+            }
+        }
+        Ok(Self {
+            rig,
+            frames,
+            bytes,
+            words,
+            st: Stream::START,
+        })
+    }
+
+    /// Depth of output rows `y0..y1` (working size) into `out` (at least `(y1 - y0) *
+    /// width` elements, row-major, `u16` millimetres along the optical axis, 0 = no data;
+    /// rows that only see sky are 0). A band that starts where the last one stopped costs
+    /// no set-up rows; the result of a row is the same however the image is cut.
+    pub fn depth_rows(
+        &mut self,
+        y0: usize,
+        y1: usize,
+        out: &mut [u16],
+    ) -> Result<BandReport, StereoError> {
+        self.rows(y0, y1, out, Output::DepthMm)
+    }
+
+    /// As [`StereoView::depth_rows`], writing disparities instead: Q4 pixels at the
+    /// working size ([`DISPARITY_FRAC_BITS`]), 0 = no data.
+    pub fn disparity_rows(
+        &mut self,
+        y0: usize,
+        y1: usize,
+        out: &mut [u16],
+    ) -> Result<BandReport, StereoError> {
+        self.rows(y0, y1, out, Output::DisparityQ4)
+    }
+
+    /// Rows `y0..y1` of the working-size output into `out` (`(y1 - y0) * width`,
+    /// row-major): the rows of each level ([`super::scale`]) matched at that level and
+    /// expanded.
+    pub(crate) fn rows(
+        &mut self,
+        y0: usize,
+        y1: usize,
+        out: &mut [u16],
+        mode: Output,
+    ) -> Result<BandReport, StereoError> {
+        let (w, h) = (self.rig.width, self.rig.height);
+        if y0 >= y1 || y1 > h {
+            return Err(StereoError::Rows { y0, y1, height: h });
+        }
+        if out.len() < (y1 - y0) * w {
+            return Err(StereoError::BufferSize {
+                buffer: StereoBuffer::Output,
+                needed: (y1 - y0) * w,
+                got: out.len(),
+            });
+        }
+        let out = out.get_mut(..(y1 - y0) * w).unwrap_or(&mut []);
+        out.fill(0);
+        let mut rep = BandReport::default();
+        let sc = &self.rig.scales;
+        // Runs of rows of one level.
+        let mut ya = y0.max(sc.first_active());
+        while ya < y1 {
+            let l = sc.level_of_row(ya);
+            let mut yb = ya + 1;
+            while yb < y1 && sc.level_of_row(yb) == l {
+                yb += 1;
+            }
+            let band = Band {
+                level: l,
+                rows: ya..yb,
+                y0,
+                w,
+            };
+            self.level_rows(&band, out, mode, &mut rep)?;
+            ya = yb;
+        }
+        Ok(rep)
+    }
+
+    /// Matches (or takes from the stream) the rows of `band.level` that hold working rows
+    /// `band.rows`, with the rows the speckle test reads around them, and writes them,
+    /// expanded, into the band's output.
+    fn level_rows(
+        &mut self,
+        band: &Band,
+        out: &mut [u16],
+        mode: Output,
+        rep: &mut BandReport,
+    ) -> Result<(), StereoError> {
+        let l = band.level;
+        let rig = self.rig;
+        let geo = rig.scales.level(l);
+        let (w, h) = geo.size();
+        if band.rows.is_empty() || w == 0 || h == 0 {
+            return Ok(());
+        }
+        let p = &rig.params;
+        let r = usize::from(p.radius_px);
+        // Level rows holding the band's rows; rows `c0..end` must be matched.
+        let (qa, qb) = (band.rows.start >> l, ((band.rows.end - 1) >> l) + 1);
+        let c0 = qa.saturating_sub(1).max(rig.scales.first_active_of(l));
+        let end = (qb + 1).min(h);
+        // Continue the stream when it holds (or is about to match) exactly what is needed.
+        let st = &mut self.st;
+        if !(st.level == l && c0 <= st.next && st.next <= c0 + 3) {
+            *st = Stream {
+                level: l,
+                next: c0,
+                ..Stream::START
+            };
+        }
+        let fin = Finish {
+            w,
+            support: p.min_support,
+            mode,
+            depth_k: rig.depth_k,
+            level: l,
+        };
+        let Stream {
+            next,
+            rings: tags,
+            disp_tag,
+            sums,
+            ..
+        } = st;
+        let mut rings = Rings::new(
+            self.bytes,
+            tags,
+            w,
+            h,
+            usize::from(p.downsample) << l,
+            2 * r + 2,
+            p.prefilter_cap,
+        );
+        // The word scratch of this level: right winners, disparity ring, column sums (a
+        // stride of the level's most groups per row), the row's words.
+        let stride = 2 * geo.max_groups();
+        let words = &mut *self.words;
+        let (rb, rest) = words.split_at_mut((4 * w.div_ceil(2)).min(words.len()));
+        let (disp, rest) = rest.split_at_mut((3 * w).min(rest.len()));
+        // Safety: `u16` and `u32` are plain integers valid for every bit pattern, and
+        // `align_to_mut` gives the aligned middle part as whole `u32` words (its prefix and
+        // suffix, at most one `u16` each, stay unused: `words_len` has one element of slack).
+        let (_, wide, _) = unsafe { rest.align_to_mut::<u32>() };
+        let (colsum, rest) = wide.split_at_mut((w * stride).min(wide.len()));
+        let (aggw, _) = rest.split_at_mut(stride.min(rest.len()));
+        let area = ((2 * r + 1) * (2 * r + 1)) as u32;
+        let oc = out_cost(p.prefilter_cap);
+        let mut q_fin = qa;
+        loop {
+            // Finish every row whose neighbours are matched (or cannot be).
+            while q_fin < qb && q_fin < *next && (q_fin + 1 < *next || q_fin + 1 >= h) {
+                finish(disp_tag, disp, q_fin, band, &fin, out, rep);
+                q_fin += 1;
+            }
+            if *next >= end {
+                break;
+            }
+            let q = *next;
+            *next += 1;
+            let Some((dlo, dhi)) = geo.row(q) else {
+                sums.row = NONE;
+                continue;
+            };
+            let (ga, gb) = (dlo / 4, dhi / 4 + 1);
+            if gb - ga > stride / 2 {
+                return Err(StereoError::TooSmall);
+            }
+            sums_to_row(
+                sums,
+                &mut rings,
+                self.frames,
+                colsum,
+                stride,
+                q,
+                (ga, gb),
+                r,
+                oc,
+                rep,
+            );
+            let m = RowMatch {
+                w,
+                r,
+                stride,
+                w0: 2 * (ga - sums.base),
+                groups: gb - ga,
+                d0: 4 * ga,
+                lo: dlo - 4 * ga,
+                hi: dhi - 4 * ga,
+                uniq: u32::from(p.uniqueness_pct),
+                gap: area * u32::from(p.min_gap_per_px),
+                lr: p.lr_check,
+            };
+            if let Some(drow) = disp.get_mut((q % 3) * w..(q % 3) * w + w) {
+                match_row(&m, colsum, aggw, rb, drow, rep);
+                if let Some(t) = disp_tag.get_mut(q % 3) {
+                    *t = q + 1;
+                }
+                rep.rows_matched += 1;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Brings the column sums to row `q` for groups `ga..gb`: groups the sums of row `q - 1`
+/// hold are updated by one row in and one row out, the others set up over the window's
+/// `2r + 1` rows; the groups kept move to the front of each column when the window would
+/// run past the stride.
+#[allow(clippy::too_many_arguments)]
+fn sums_to_row(
+    st: &mut SumsState,
+    rings: &mut Rings<'_>,
+    frames: [&ImageView<'_>; 2],
+    colsum: &mut [u32],
+    stride: usize,
+    q: usize,
+    (ga, gb): (usize, usize),
+    r: usize,
+    oc: u16,
+    rep: &mut BandReport,
+) {
+    let w = rings.w;
+    let ri = r as isize;
+    // Groups kept from row q - 1.
+    let (ka, kb) = if st.row != NONE && st.row + 1 == q {
+        (ga.max(st.g_lo), gb.min(st.g_hi))
+    } else {
+        (ga, ga)
+    };
+    let (ka, kb) = if ka < kb { (ka, kb) } else { (ga, ga) };
+    // Rebase when a group would lie before the base or past the stride.
+    if ga < st.base || 2 * (gb - st.base) > stride {
+        let (from, to, len) = (2 * (ka - st.base.min(ka)), 2 * (ka - ga), 2 * (kb - ka));
+        for col in colsum.chunks_exact_mut(stride.max(1)).take(w) {
+            move_words(col, from, to, len);
+        }
+        st.base = ga;
+    }
+    let sums = |g0: usize, g1: usize| Sums {
+        stride,
+        n: g1 - g0,
+        dmin: 4 * g0,
+    };
+    let base = st.base;
+    if kb > ka {
+        let so = rings.ensure(frames, q as isize - ri - 1);
+        let sn = rings.ensure(frames, q as isize + ri);
+        let (lo, ro) = rings.rows(so);
+        let (ln, rn) = rings.rows(sn);
+        let cs = colsum.get_mut(2 * (ka - base)..).unwrap_or(&mut []);
+        update_rows(cs, sums(ka, kb), ln, rn, lo, ro);
+        rep.cost_updates += (w * 4 * (kb - ka)) as u64;
+    }
+    // New groups: below the kept ones and above them.
+    for (g0, g1) in [(ga, ka), (kb, gb)] {
+        if g1 <= g0 {
+            continue;
+        }
+        let (off, n) = (2 * (g0 - base), 2 * (g1 - g0));
+        for col in colsum.chunks_exact_mut(stride.max(1)).take(w) {
+            if let Some(c) = col.get_mut(off..off + n) {
+                c.fill(0);
+            }
+        }
+        for k in q as isize - ri..=q as isize + ri {
+            let sl = rings.ensure(frames, k);
+            let (lr, rr) = rings.rows(sl);
+            add_row(
+                colsum.get_mut(off..).unwrap_or(&mut []),
+                sums(g0, g1),
+                lr,
+                rr,
+                oc,
+            );
+        }
+        rep.cost_updates += ((2 * r + 1) * w * 2 * n) as u64 / 2;
+    }
+    st.row = q;
+    st.g_lo = ga;
+    st.g_hi = gb;
+}
+
+/// Moves `len` words of `col` from `from` to `to` (the ranges may overlap; nothing moves
+/// when either lies outside).
+fn move_words(col: &mut [u32], from: usize, to: usize, len: usize) {
+    if from + len > col.len() || to + len > col.len() || from == to {
+        return;
+    }
+    if to < from {
+        for i in 0..len {
+            if let Some(&v) = col.get(from + i) {
+                if let Some(d) = col.get_mut(to + i) {
+                    *d = v;
+                }
+            }
+        }
+    } else {
+        for i in (0..len).rev() {
+            if let Some(&v) = col.get(from + i) {
+                if let Some(d) = col.get_mut(to + i) {
+                    *d = v;
+                }
+            }
+        }
+    }
+}
+
+/// Finishes level row `q` from the disparity ring (rows not matched are "no data") into
+/// the band's working rows it covers.
+fn finish(
+    tag: &[usize; 3],
+    disp: &[u16],
+    q: usize,
+    band: &Band,
+    fin: &Finish,
+    out: &mut [u16],
+    rep: &mut BandReport,
+) {
+    let w = fin.w;
+    let row = |y: Option<usize>| -> Option<&[u16]> {
+        let y = y?;
+        if tag.get(y % 3) != Some(&(y + 1)) {
+            return None;
+        }
+        disp.get((y % 3) * w..(y % 3) * w + w)
+    };
+    let Some(cur) = row(Some(q)) else {
+        return;
+    };
+    let l = fin.level;
+    // The working rows of level row `q` inside the band's rows.
+    let ya = (q << l).max(band.rows.start);
+    let yb = ((q + 1) << l).min(band.rows.end);
+    if ya >= yb || ya < band.y0 {
+        return;
+    }
+    let bw = band.w;
+    let first = (ya - band.y0) * bw;
+    let Some(o) = out.get_mut(first..first + bw) else {
+        return;
+    };
+    let valid = finish_row(row(q.checked_sub(1)), cur, row(Some(q + 1)), fin, o, rep);
+    // Working-size pixels with data: each level pixel covers 2^l x 2^l of them.
+    rep.valid += valid * ((yb - ya) << l) as u64;
+    // The other working rows of `q` repeat the first (later rows: after it in `out`).
+    let (head, tail) = out.split_at_mut((first + bw).min(out.len()));
+    let src = head.get(first..).unwrap_or(&[]);
+    for dst in tail.chunks_exact_mut(bw.max(1)).take(yb - ya - 1) {
+        for (d, &v) in dst.iter_mut().zip(src) {
+            *d = v;
+        }
+    }
+}
+
+/// Rows `y0..y1` of the working-size output into `out` (`(y1 - y0) * width`, row-major),
+/// on a fresh stream.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn run(
     rig: &StereoRig,
@@ -654,184 +1301,5 @@ pub(crate) fn run(
     out: &mut [u16],
     mode: Output,
 ) -> Result<BandReport, StereoError> {
-    let frames = check_inputs(rig, left, right)?;
-    let (w, h) = (rig.width, rig.height);
-    if y0 >= y1 || y1 > h {
-        return Err(StereoError::Rows { y0, y1, height: h });
-    }
-    let sizes = rig.buffer_sizes();
-    for (buffer, needed, got) in [
-        (StereoBuffer::Bytes, sizes.bytes, bytes.len()),
-        (StereoBuffer::Words, sizes.words, words.len()),
-        (StereoBuffer::Output, (y1 - y0) * w, out.len()),
-    ] {
-        if got < needed {
-            return Err(StereoError::BufferSize {
-                buffer,
-                needed,
-                got,
-            });
-        }
-    }
-    let p = &rig.params;
-    let r = usize::from(p.radius_px);
-    let ring = 2 * r + 2;
-    // Lengths were checked above; `min` keeps the splits free of panic paths.
-    let (ds_l, rest) = bytes.split_at_mut((3 * w).min(bytes.len()));
-    let (ds_r, rest) = rest.split_at_mut((3 * w).min(rest.len()));
-    let (f_l, rest) = rest.split_at_mut((ring * w).min(rest.len()));
-    let (f_r, _) = rest.split_at_mut((ring * w).min(rest.len()));
-    let mut rings = Rings {
-        ds: [ds_l, ds_r],
-        filt: [f_l, f_r],
-        ds_tag: [0; 3],
-        f_tag: [0; RING_MAX],
-        w,
-        h,
-        k: usize::from(p.downsample),
-        ring,
-        cap: p.prefilter_cap,
-    };
-    let out = out.get_mut(..(y1 - y0) * w).unwrap_or(&mut []);
-    out.fill(0);
-    let mut rep = BandReport::default();
-
-    let geo = &rig.geo;
-    let c0 = y0.saturating_sub(1).max(geo.first_active());
-    let c1 = (y1 + 1).min(h);
-    if c0 >= c1 {
-        return Ok(rep);
-    }
-    let Some((dmin, dmax)) = geo.union(c0, c1) else {
-        return Ok(rep);
-    };
-    let dn = dmax + 1 - dmin;
-    if dn > rig.max_disp {
-        return Err(StereoError::TooSmall);
-    }
-    // Words per column: `dn` rounded up to groups of four lanes, two lanes per word.
-    let gw = 2 * dn.div_ceil(4);
-    let (rbc, rest) = words.split_at_mut(w.min(words.len()));
-    let (rbd, rest) = rest.split_at_mut(w.min(rest.len()));
-    let (disp, rest) = rest.split_at_mut((3 * w).min(rest.len()));
-    // Safety: `u16` and `u32` are plain integers valid for every bit pattern, and
-    // `align_to_mut` gives the aligned middle part as whole `u32` words (its prefix and
-    // suffix, at most one `u16` each, stay unused: `words_len` has one element of slack).
-    let (_, wide, _) = unsafe { rest.align_to_mut::<u32>() };
-    let (colsum, rest) = wide.split_at_mut((w * gw).min(wide.len()));
-    let (aggw, rest) = rest.split_at_mut(gw.min(rest.len()));
-    let (natw, _) = rest.split_at_mut(gw.min(rest.len()));
-    // Safety: `u16` has half the size and alignment of `u32` and every bit pattern is
-    // valid, so the words read as `u16` give no prefix or suffix.
-    let (_, nat, _) = unsafe { natw.align_to_mut::<u16>() };
-    let mut disp_tag = [0usize; 3];
-    let oc = out_cost(p.prefilter_cap);
-    let ri = r as isize;
-
-    colsum.fill(0);
-    for k in c0 as isize - ri..=c0 as isize + ri {
-        let s = rings.ensure(frames, k);
-        let (l, rr) = rings.rows(s);
-        add_row(colsum, gw, dmin, l, rr, oc);
-    }
-    rep.cost_updates += ((2 * r + 1) * w * dn) as u64 / 2;
-    let area = ((2 * r + 1) * (2 * r + 1)) as u32;
-    for y in c0..c1 {
-        if y > c0 {
-            let so = rings.ensure(frames, y as isize - ri - 1);
-            let sn = rings.ensure(frames, y as isize + ri);
-            let (lo, ro) = rings.rows(so);
-            let (ln, rn) = rings.rows(sn);
-            update_rows(colsum, gw, dmin, ln, rn, lo, ro);
-            rep.cost_updates += (w * dn) as u64;
-        }
-        if let Some((lo, hi)) = geo.row(y) {
-            let m = RowMatch {
-                w,
-                r,
-                gw,
-                dmin,
-                jl: lo.saturating_sub(dmin),
-                jh: hi.saturating_sub(dmin).min(dn - 1),
-                uniq: u32::from(p.uniqueness_pct),
-                gap: area * u32::from(p.min_gap_per_px),
-                lr: p.lr_check,
-            };
-            if let Some(drow) = disp.get_mut((y % 3) * w..(y % 3) * w + w) {
-                match_row(&m, colsum, aggw, nat, rbc, rbd, drow, &mut rep);
-                if let Some(t) = disp_tag.get_mut(y % 3) {
-                    *t = y + 1;
-                }
-                rep.rows_matched += 1;
-            }
-        }
-        if y >= 1 && (y0..y1).contains(&(y - 1)) {
-            finish(
-                &disp_tag,
-                disp,
-                w,
-                y - 1,
-                y0,
-                p.min_support,
-                mode,
-                rig.depth_k,
-                out,
-                &mut rep,
-            );
-        }
-    }
-    if (y0..y1).contains(&(c1 - 1)) {
-        finish(
-            &disp_tag,
-            disp,
-            w,
-            c1 - 1,
-            y0,
-            p.min_support,
-            mode,
-            rig.depth_k,
-            out,
-            &mut rep,
-        );
-    }
-    Ok(rep)
-}
-
-/// Finishes output row `q` from the disparity ring (rows not matched are "no data").
-#[allow(clippy::too_many_arguments)]
-fn finish(
-    tag: &[usize; 3],
-    disp: &[u16],
-    w: usize,
-    q: usize,
-    y0: usize,
-    support: u8,
-    mode: Output,
-    depth_k: u32,
-    out: &mut [u16],
-    rep: &mut BandReport,
-) {
-    let row = |y: Option<usize>| -> Option<&[u16]> {
-        let y = y?;
-        if tag.get(y % 3) != Some(&(y + 1)) {
-            return None;
-        }
-        disp.get((y % 3) * w..(y % 3) * w + w)
-    };
-    let Some(cur) = row(Some(q)) else {
-        return;
-    };
-    let Some(o) = out.get_mut((q - y0) * w..(q - y0) * w + w) else {
-        return;
-    };
-    finish_row(
-        row(q.checked_sub(1)),
-        cur,
-        row(Some(q + 1)),
-        support,
-        mode,
-        depth_k,
-        o,
-        rep,
-    );
+    StereoView::new(rig, left, right, bytes, words)?.rows(y0, y1, out, mode)
 }

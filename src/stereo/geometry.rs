@@ -10,7 +10,11 @@
 //! one pixel on each side so that every true disparity in range is an interior winner
 //! (`Zmax`: the largest depth of a point within `max_ground_range_m`). Rows with
 //! `s_hi <= 0` only see sky (nothing there is lower than the camera minus `above`) and are
-//! skipped. Set-up math (`f32`, once per rig).
+//! skipped. Set-up math (`f32`, once per rig and per row of a band).
+//!
+//! A rig has one [`RowRanges`] per matching level ([`super::scale`]): level `L` works on the
+//! frames reduced by `downsample * 2^L`, so its focal length, rows and disparities are
+//! `2^L` times smaller.
 
 use super::StereoParams;
 use crate::camera::CameraParams;
@@ -34,13 +38,12 @@ pub struct RowRanges {
 }
 
 impl RowRanges {
-    pub(crate) fn new(
-        camera: &CameraParams,
-        p: &StereoParams,
-        width: usize,
-        height: usize,
-    ) -> Self {
-        let k = f32::from(p.downsample);
+    /// The ranges of matching level `level` (frames reduced by `downsample << level`).
+    pub(crate) fn new(camera: &CameraParams, p: &StereoParams, level: u8) -> Self {
+        let factor = u32::from(p.downsample) << level.min(8);
+        let width = camera.width_px.checked_div(factor).unwrap_or(0) as usize;
+        let height = camera.height_px.checked_div(factor).unwrap_or(0) as usize;
+        let k = factor as f32;
         let focal = camera.focal_px() / k;
         let m = p.attitude_margin_deg.to_radians();
         let t = camera.tilt_deg.to_radians();
@@ -63,6 +66,26 @@ impl RowRanges {
             roll_term: half * libm::sinf(m),
             radius: usize::from(p.radius_px),
         }
+    }
+
+    /// `(width, height)` of this level's image, pixels.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// Depth error, metres, that a quarter-pixel disparity error at this level causes at
+    /// the flat ground under the top edge of row `v` (its farthest ground, level rover at
+    /// tilt `tilt_deg`: `dZ = Z^2 / (4 f B)`), or `None` when that edge sees no ground (at
+    /// or above the horizon).
+    pub fn quarter_px_depth_error(&self, v: usize, tilt_deg: f32) -> Option<f32> {
+        let t = tilt_deg.to_radians();
+        let yn = (v as f32 - self.cy) / self.focal;
+        let s = libm::sinf(t) + yn * libm::cosf(t);
+        if s.is_nan() || s <= 0.0 {
+            return None;
+        }
+        let z = self.h / s;
+        Some(z * z / (4.0 * self.fb))
     }
 
     /// Focal length at the working size, pixels.
@@ -127,6 +150,16 @@ impl RowRanges {
         self.union(0, self.height).map_or(0, |(l, h)| h + 1 - l)
     }
 
+    /// The most groups of four disparities (`4g .. 4g + 4`) any row's range touches: what
+    /// the column sums of a row hold (the band matcher's).
+    pub fn max_groups(&self) -> usize {
+        (0..self.height)
+            .filter_map(|v| self.row(v))
+            .map(|(lo, hi)| hi / 4 + 1 - lo / 4)
+            .max()
+            .unwrap_or(0)
+    }
+
     /// Pixel-disparities the winner-take-all of rows `a..b` evaluates (columns with a full
     /// window times the row's range): the instruction-relevant work.
     pub fn row_work(&self, a: usize, b: usize) -> u64 {
@@ -146,7 +179,7 @@ mod tests {
     fn flat_ground_inside_each_range_and_sky_skipped() {
         let cam = CameraParams::default();
         let p = StereoParams::default();
-        let r = RowRanges::new(&cam, &p, 320, 180);
+        let r = RowRanges::new(&cam, &p, 0);
         let f = r.focal_px();
         assert!((f - 160.0).abs() < 1e-3);
         let first = r.first_active();

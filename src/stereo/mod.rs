@@ -29,21 +29,27 @@
 //! Only the rows and disparities that can hold ground inside the top-down square are
 //! evaluated: [`geometry`] derives each row's disparity range from the rig (height, tilt,
 //! attitude margin), the relief band and the largest ground range, and rows that can only
-//! see sky are skipped.
+//! see sky are skipped. Near rows are matched at a coarser scale ([`scale`]) where a
+//! quarter-pixel disparity error there still moves their ground by at most
+//! `scale_error_m`; their output is expanded to the working size.
 //!
 //! Memory: the caller's scratch of [`stereo_buffer_sizes`] (bytes and `u16` words, a few
 //! tens of KB at the default 320 x 180 working size) plus the output band; frames are read
-//! in place (they may live in external memory). A band of rows `y0..y1` costs `2r + 1`
-//! extra rows of set-up: bands of 16 or more rows keep that below ~40 %.
+//! in place (they may live in external memory). A view is one stream ([`StereoView`],
+//! [`StereoRig::view`]): bands that follow each other cost no set-up rows and match no row
+//! twice, so the band height only sets the output buffer; a band on its own
+//! ([`StereoRig::depth_band`]) costs `2r + 1` rows of set-up.
 
 mod band;
 pub mod geometry;
+mod kernel;
 mod prefilter;
 #[cfg(test)]
 mod reference;
+pub mod scale;
 mod swar;
 
-pub use band::BandReport;
+pub use band::{BandReport, StereoView};
 pub use prefilter::{downsample_row, prefilter};
 
 use crate::camera::{CameraError, CameraParams};
@@ -91,11 +97,19 @@ pub struct StereoParams {
     pub relief_below_m: f32,
     /// Pitch and roll the ranges allow for, degrees, in [0, 30].
     pub attitude_margin_deg: f32,
+    /// Coarser scales near rows may be matched at (0..=2): level `L` reduces the frames by
+    /// `downsample * 2^L` ([`scale`]); 0 matches every row at the working size.
+    pub scale_levels: u8,
+    /// A row is matched at a coarser level only where a quarter-pixel disparity error there
+    /// moves its flat ground by at most this, metres (finite, >= 0).
+    pub scale_error_m: f32,
 }
 
 impl Default for StereoParams {
     /// 0.30 m baseline, 2x reduction, 7 x 7 window, cap 31, 10 % uniqueness, gap 1 per
-    /// pixel, left-right check, support 3, 25 sqrt(2) m range, relief +0.5 m / -2 m, 2 deg.
+    /// pixel, left-right check, support 3, 25 sqrt(2) m range, relief +0.5 m / -2 m, 2 deg,
+    /// up to two coarser scales where a quarter pixel moves the ground by at most 0.125 m
+    /// (half a 0.25 m top-down cell).
     fn default() -> Self {
         Self {
             baseline_m: DEFAULT_BASELINE_M,
@@ -110,6 +124,8 @@ impl Default for StereoParams {
             relief_above_m: 0.5,
             relief_below_m: 2.0,
             attitude_margin_deg: 2.0,
+            scale_levels: 2,
+            scale_error_m: 0.125,
         }
     }
 }
@@ -273,7 +289,8 @@ pub struct StereoBufferSizes {
     pub out_width: usize,
     /// Output height, rows.
     pub out_height: usize,
-    /// Most disparities a band evaluates.
+    /// Disparity lanes the column sums hold per column: the most groups of four
+    /// disparities (`4g .. 4g + 4`) any row's range touches, at any level, times 4.
     pub max_disparities: usize,
 }
 
@@ -298,20 +315,22 @@ pub fn stereo_buffer_sizes(
 }
 
 /// Upper bound of the scratch of any rig with a working width of at most `width` pixels,
-/// aggregation radius `radius_px` and at most `max_disparities` disparities (for callers
-/// that size buffers before they know the rig: [`crate::fix::fix_buffer_sizes`]); the
-/// output fields give `width` and 0 rows.
+/// aggregation radius `radius_px` and column sums of at most `max_disparities` lanes
+/// (rounded up to groups of four; a rig's [`StereoBufferSizes::max_disparities`]), for
+/// callers that size buffers before they know the rig ([`crate::fix::fix_buffer_sizes`]);
+/// the output fields give `width` and 0 rows.
 pub fn stereo_buffer_bound(
     width: usize,
     radius_px: u8,
     max_disparities: usize,
 ) -> StereoBufferSizes {
+    let groups = max_disparities.div_ceil(4);
     StereoBufferSizes {
         bytes: band::bytes_len(width, usize::from(radius_px)),
-        words: band::words_len(width, max_disparities),
+        words: band::words_len(width, groups),
         out_width: width,
         out_height: 0,
-        max_disparities,
+        max_disparities: 4 * groups,
     }
 }
 
@@ -320,12 +339,15 @@ pub fn stereo_buffer_bound(
 pub struct StereoRig {
     camera: CameraParams,
     params: StereoParams,
-    geo: geometry::RowRanges,
+    scales: scale::Scales,
     width: usize,
     height: usize,
     /// `f B * 1000 * 16` at the working size: depth mm = this / disparity Q4.
     depth_k: u32,
+    /// Lanes of the column sums per column ([`StereoBufferSizes::max_disparities`]).
     max_disp: usize,
+    /// `u16` scratch elements: the most any level in use needs.
+    words: usize,
 }
 
 impl StereoRig {
@@ -336,7 +358,7 @@ impl StereoRig {
         if !(p.baseline_m.is_finite() && p.baseline_m > 0.0 && p.baseline_m <= 10.0) {
             return Err(StereoError::Baseline);
         }
-        let checks: [(bool, &'static str); 9] = [
+        let checks: [(bool, &'static str); 11] = [
             ((1..=4).contains(&p.downsample), "downsample must be 1..=4"),
             (
                 (1..=MAX_RADIUS).contains(&p.radius_px),
@@ -366,43 +388,65 @@ impl StereoRig {
                     && (0.0..=30.0).contains(&p.attitude_margin_deg),
                 "attitude_margin_deg must be in [0, 30]",
             ),
+            (
+                usize::from(p.scale_levels) < scale::LEVELS,
+                "scale_levels must be 0..=2",
+            ),
+            (
+                p.scale_error_m.is_finite() && p.scale_error_m >= 0.0,
+                "scale_error_m must be finite and >= 0",
+            ),
         ];
         for (ok, what) in checks {
             if !ok {
                 return Err(StereoError::Param(what));
             }
         }
-        let k = usize::from(p.downsample);
-        let width = (camera.width_px as usize).checked_div(k).unwrap_or(0);
-        let height = (camera.height_px as usize).checked_div(k).unwrap_or(0);
         let r = usize::from(p.radius_px);
+        // A level can be matched when its image leaves the window room, its disparity
+        // indices fit the matcher's 16-bit halves (`band`), and its widest disparity leaves
+        // columns to match.
+        let usable = |g: &geometry::RowRanges| {
+            let (w, h) = g.size();
+            w >= 2 * r + 4
+                && h >= 2 * r + 2
+                && w <= 32_767
+                && g.max_disparities() > 0
+                && g.global_max() + 2 * r + 2 <= w
+        };
+        let level0 = geometry::RowRanges::new(camera, p, 0);
+        let (width, height) = level0.size();
         if width < 2 * r + 4 || height < 2 * r + 2 {
             return Err(StereoError::TooSmall);
         }
-        // The matcher keeps disparity indices in 16-bit halves of its keys (`band`).
         if width > 32_767 {
             return Err(StereoError::Param(
                 "downsample must reduce the frames to at most 32767 pixels wide",
             ));
         }
-        let geo = geometry::RowRanges::new(camera, p, width, height);
-        let max_disp = geo.max_disparities();
-        // The widest disparity must leave columns to match.
-        if max_disp == 0 || geo.global_max() + 2 * r + 2 > width {
+        if !usable(&level0) {
             return Err(StereoError::TooSmall);
         }
-        let kq = geo.focal_px() * p.baseline_m * 1000.0 * (1u32 << DISPARITY_FRAC_BITS) as f32;
+        let scales = scale::Scales::new(camera, p, usable);
+        let levels = (0..scales.used()).map(|l| scales.level(l));
+        let max_disp = 4 * levels.clone().map(|g| g.max_groups()).max().unwrap_or(0);
+        let words = levels
+            .map(|g| band::words_len(g.size().0, g.max_groups()))
+            .max()
+            .unwrap_or(0);
+        let kq = level0.focal_px() * p.baseline_m * 1000.0 * (1u32 << DISPARITY_FRAC_BITS) as f32;
         if !(1.0..4.0e9).contains(&kq) {
             return Err(StereoError::Baseline);
         }
         Ok(Self {
             camera: *camera,
             params: *params,
-            geo,
+            scales,
             width,
             height,
             depth_k: libm::roundf(kq) as u32,
             max_disp,
+            words,
         })
     }
 
@@ -411,9 +455,14 @@ impl StereoRig {
         &self.params
     }
 
-    /// The row disparity ranges.
+    /// The row disparity ranges at the working size (level 0).
     pub fn ranges(&self) -> &geometry::RowRanges {
-        &self.geo
+        self.scales.level(0)
+    }
+
+    /// The matching level of each row and every level's disparity ranges.
+    pub fn scales(&self) -> &scale::Scales {
+        &self.scales
     }
 
     /// Output `(width, height)`, pixels (the working size: frame size / `downsample`).
@@ -442,11 +491,25 @@ impl StereoRig {
         let r = usize::from(self.params.radius_px);
         StereoBufferSizes {
             bytes: band::bytes_len(w, r),
-            words: band::words_len(w, self.max_disp),
+            words: self.words,
             out_width: w,
             out_height: self.height,
             max_disparities: self.max_disp,
         }
+    }
+
+    /// A stream over one view's pair in the caller's scratch (sizes of
+    /// [`StereoRig::buffer_sizes`]): [`StereoView::depth_rows`] band by band, top to
+    /// bottom, costs each row once. A missing right image, a black or saturated frame, or
+    /// frames of the wrong size are errors (the view then has no stereo depth).
+    pub fn view<'a>(
+        &'a self,
+        left: &'a ImageView<'a>,
+        right: Option<&'a ImageView<'a>>,
+        bytes: &'a mut [u8],
+        words: &'a mut [u16],
+    ) -> Result<StereoView<'a>, StereoError> {
+        StereoView::new(self, left, right, bytes, words)
     }
 
     /// Depth of output rows `y0..y1` (working size) of the pair `left`, `right` into `out`
@@ -533,10 +596,11 @@ impl StereoRig {
             band::Output::DepthMm
         };
         let mut rep = BandReport::default();
+        let mut view = self.view(left, right, bytes, words)?;
         for (i, chunk) in out.chunks_mut(step * w).enumerate().take(h.div_ceil(step)) {
             let y0 = i * step;
             let y1 = (y0 + step).min(h);
-            let r = band::run(self, left, right, y0, y1, bytes, words, chunk, mode)?;
+            let r = view.rows(y0, y1, chunk, mode)?;
             rep.add(&r);
         }
         Ok(rep)

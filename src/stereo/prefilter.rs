@@ -3,11 +3,13 @@
 use super::swar::word;
 use crate::image::ImageView;
 
-/// Row `row` of `frame` reduced by `k` (1..=4; box average of `k x k` pixels, rounded) into
-/// `out` (`frame.width() / k` pixels; a shorter `out` gets its first pixels, a longer one
-/// keeps the rest). Rows past the reduced image (`row >= height / k`) leave `out` as is.
+/// Row `row` of `frame` reduced by `k` (1..=16, clamped; box average of `k x k` pixels,
+/// rounded) into `out` (`frame.width() / k` pixels; a shorter `out` gets its first pixels, a
+/// longer one keeps the rest). Rows past the reduced image (`row >= height / k`) leave
+/// `out` as is. The matcher's coarser levels ([`super::scale`]) reduce by
+/// `downsample * 2^level`.
 pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8]) {
-    let k = k.clamp(1, 4);
+    let k = k.clamp(1, 16);
     let w = frame.width().checked_div(k).unwrap_or(0);
     let row_at = |i: usize| frame.row(row * k + i);
     match k {
@@ -28,13 +30,12 @@ pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8
                     .chunks_exact_mut(4)
                     .zip(a.chunks_exact(8).zip(b.chunks_exact(8)))
                 {
-                    if let ([o0, o1, o2, o3], [p0, p1, p2, p3, p4, p5, p6, p7]) = (o, p) {
-                        let (q0, q1) = (word(q), word(q.get(4..).unwrap_or(&[])));
-                        let w0 = u32::from_le_bytes([*p0, *p1, *p2, *p3]);
-                        let w1 = u32::from_le_bytes([*p4, *p5, *p6, *p7]);
-                        // Lanes: the sums of pixels 0..4 and 4..8 of both rows, + 2.
-                        let lo = (pair_sums(w0) + pair_sums(q0) + 0x0002_0002) >> 2;
-                        let hi = (pair_sums(w1) + pair_sums(q1) + 0x0002_0002) >> 2;
+                    let (p0, p1) = (word(p), word(p.get(4..).unwrap_or(&[])));
+                    let (q0, q1) = (word(q), word(q.get(4..).unwrap_or(&[])));
+                    // Lanes: the sums of pixels 0..4 and 4..8 of both rows, + 2.
+                    let lo = (pair_sums(p0) + pair_sums(q0) + 0x0002_0002) >> 2;
+                    let hi = (pair_sums(p1) + pair_sums(q1) + 0x0002_0002) >> 2;
+                    if let [o0, o1, o2, o3] = o {
                         *o0 = lo as u8;
                         *o1 = (lo >> 16) as u8;
                         *o2 = hi as u8;
@@ -59,13 +60,49 @@ pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8
                 reduce([a, b, c], w, out);
             }
         }
-        _ => {
+        4 => {
             if let (Some(a), Some(b), Some(c), Some(d)) =
                 (row_at(0), row_at(1), row_at(2), row_at(3))
             {
-                reduce([a, b, c, d], w, out);
+                // One output pixel from one word of each row: the byte pairs' sums in two
+                // `u16` lanes (at most 4 * 510), then the two lanes.
+                let blocks = a
+                    .chunks_exact(4)
+                    .zip(b.chunks_exact(4))
+                    .zip(c.chunks_exact(4).zip(d.chunks_exact(4)));
+                for (o, ((p, q), (r, s))) in out.iter_mut().zip(blocks).take(w) {
+                    let t = pair_sums(word(p))
+                        + pair_sums(word(q))
+                        + pair_sums(word(r))
+                        + pair_sums(word(s));
+                    *o = (((t & 0xffff) + (t >> 16) + 8) >> 4) as u8;
+                }
             }
         }
+        _ => reduce_rows(frame, k, row, w, out),
+    }
+}
+
+/// Box average of `k x k` pixels (any `k` in 5..=16) of rows `row k .. row k + k` into the
+/// first `w` pixels of `out`: column sums of the `k` rows, then `k` sums per output pixel.
+fn reduce_rows(frame: &ImageView<'_>, k: usize, row: usize, w: usize, out: &mut [u8]) {
+    let area = (k * k) as u32;
+    let out = match out.get_mut(..w.min(out.len())) {
+        Some(o) => o,
+        None => return,
+    };
+    if (0..k).any(|i| frame.row(row * k + i).is_none()) {
+        return;
+    }
+    for (x, o) in out.iter_mut().enumerate() {
+        let mut s = 0u32;
+        for i in 0..k {
+            if let Some(p) = frame.row(row * k + i).and_then(|r| r.get(x * k..x * k + k)) {
+                s += p.iter().map(|&v| u32::from(v)).sum::<u32>();
+            }
+        }
+        // At most 16 * 16 * 255: no overflow.
+        *o = ((s + area / 2) / area) as u8;
     }
 }
 
@@ -115,28 +152,135 @@ pub fn prefilter(above: &[u8], mid: &[u8], below: &[u8], cap: u8, out: &mut [u8]
     }
     // Interior columns x = 1 .. w - 1 (w >= 3): with the column sums
     // `v(x) = above(x) + 2 mid(x) + below(x)` the Sobel is `v(x + 1) - v(x - 1)`.
-    if let (Some(a), Some(m), Some(b), Some(o)) = (
-        above.get(..w),
-        mid.get(..w),
-        below.get(..w),
-        out.get_mut(1..w - 1),
-    ) {
-        let mut v = a
-            .iter()
-            .zip(m)
-            .zip(b)
-            .map(|((&a, &m), &b)| i32::from(a) + 2 * i32::from(m) + i32::from(b));
-        if let (Some(mut v0), Some(mut v1)) = (v.next(), v.next()) {
-            for (o, v2) in o.iter_mut().zip(v) {
-                *o = ((v2 - v0).clamp(-cap, cap) + cap) as u8;
-                v0 = v1;
-                v1 = v2;
+    if w >= 3 {
+        let v = |i: usize| -> i32 {
+            match (above.get(i), mid.get(i), below.get(i)) {
+                (Some(&a), Some(&m), Some(&b)) => i32::from(a) + 2 * i32::from(m) + i32::from(b),
+                _ => 0,
             }
+        };
+        let (v0, v1) = (v(0), v(1));
+        // Safety: `w` is at most every row's length (above), so columns `2 .. w` of the
+        // three rows and `1 .. w - 1` of `out` exist.
+        unsafe {
+            sobel_interior(
+                above.as_ptr().add(2),
+                mid.as_ptr().add(2),
+                below.as_ptr().add(2),
+                out.as_mut_ptr().add(1),
+                w - 2,
+                v0,
+                v1,
+                cap,
+            );
         }
     }
     if w >= 2 {
         if let Some(o) = out.get_mut(w - 1) {
             *o = edge(w - 1);
+        }
+    }
+}
+
+/// The interior of [`prefilter`]: `n` outputs at `po`, output `i` the clipped `v(i + 2) -
+/// v(i)` with `v(0) = v0`, `v(1) = v1` and `v(i + 2)` from the bytes at `pa + i`, `pm + i`,
+/// `pb + i` (`a + 2 m + b`), offset by `cap`.
+///
+/// # Safety
+/// `n` bytes readable at `pa`, `pm`, `pb` and writable at `po`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn sobel_interior(
+    pa: *const u8,
+    pm: *const u8,
+    pb: *const u8,
+    po: *mut u8,
+    n: usize,
+    v0: i32,
+    v1: i32,
+    cap: i32,
+) {
+    let (mut pa, mut pm, mut pb, mut po) = (pa, pm, pb, po);
+    let (mut v0, mut v1) = (v0, v1);
+    #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+    let left = n;
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    let left = n % 3;
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    if n >= 3 {
+        let blocks = n / 3;
+        // Safety: reads `3 blocks` bytes at `pa`, `pm`, `pb` and writes as many at `po`
+        // (the caller's contract), advancing each pointer; no stack. The flags are not
+        // declared preserved. `v` rotates through three registers: `x` = v(i), `y` = v(i +
+        // 1), `z` the next, and the clip is `usat` to 0..=255 then the minimum with `2 cap`
+        // (< 255).
+        unsafe {
+            core::arch::asm!(
+                "2:",
+                "ldrb {t}, [{pa}], #1",
+                "ldrb {u}, [{pm}], #1",
+                "add {t}, {t}, {u}, lsl #1",
+                "ldrb {u}, [{pb}], #1",
+                "add {z}, {t}, {u}",
+                "sub {t}, {z}, {x}",
+                "add {t}, {t}, {cap}",
+                "usat {t}, #8, {t}",
+                "cmp {t}, {cap2}",
+                "it hi",
+                "movhi {t}, {cap2}",
+                "strb {t}, [{po}], #1",
+                "ldrb {t}, [{pa}], #1",
+                "ldrb {u}, [{pm}], #1",
+                "add {t}, {t}, {u}, lsl #1",
+                "ldrb {u}, [{pb}], #1",
+                "add {x}, {t}, {u}",
+                "sub {t}, {x}, {y}",
+                "add {t}, {t}, {cap}",
+                "usat {t}, #8, {t}",
+                "cmp {t}, {cap2}",
+                "it hi",
+                "movhi {t}, {cap2}",
+                "strb {t}, [{po}], #1",
+                "ldrb {t}, [{pa}], #1",
+                "ldrb {u}, [{pm}], #1",
+                "add {t}, {t}, {u}, lsl #1",
+                "ldrb {u}, [{pb}], #1",
+                "add {y}, {t}, {u}",
+                "sub {t}, {y}, {z}",
+                "add {t}, {t}, {cap}",
+                "usat {t}, #8, {t}",
+                "cmp {t}, {cap2}",
+                "it hi",
+                "movhi {t}, {cap2}",
+                "strb {t}, [{po}], #1",
+                "subs {n}, {n}, #1",
+                "bne 2b",
+                pa = inout(reg) pa,
+                pm = inout(reg) pm,
+                pb = inout(reg) pb,
+                po = inout(reg) po,
+                n = inout(reg) blocks => _,
+                x = inout(reg) v0,
+                y = inout(reg) v1,
+                z = out(reg) _,
+                cap = in(reg) cap,
+                cap2 = in(reg) 2 * cap,
+                t = out(reg) _,
+                u = out(reg) _,
+                options(nostack),
+            );
+        }
+    }
+    // Safety: the caller's contract; one element per step for the `left` outputs.
+    unsafe {
+        for _ in 0..left {
+            let v2 = i32::from(*pa) + 2 * i32::from(*pm) + i32::from(*pb);
+            *po = ((v2 - v0).max(-cap).min(cap) + cap) as u8;
+            (v0, v1) = (v1, v2);
+            pa = pa.add(1);
+            pm = pm.add(1);
+            pb = pb.add(1);
+            po = po.add(1);
         }
     }
 }
@@ -176,29 +320,15 @@ mod tests {
     }
     // The plain per-pixel forms these replaced, kept as references.
     fn downsample_row_ref(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8]) {
-        let k = k.clamp(1, 4);
+        let k = k.clamp(1, 16);
         let w = frame.width().checked_div(k).unwrap_or(0);
-        if k == 1 {
-            if let Some(src) = frame.row(row) {
-                for (o, &s) in out.iter_mut().zip(src).take(w) {
-                    *o = s;
-                }
-            }
-            return;
-        }
         let area = (k * k) as u32;
-        let rows: [Option<&[u8]>; 4] = [
-            frame.row(row * k),
-            frame.row(row * k + 1),
-            frame.row(row * k + 2),
-            frame.row(row * k + 3),
-        ];
-        if rows.iter().take(k).any(|r| r.is_none()) {
+        if (0..k).any(|i| frame.row(row * k + i).is_none()) {
             return;
         }
         for (i, o) in out.iter_mut().enumerate().take(w) {
             let mut s = 0u32;
-            for r in rows.iter().take(k).flatten() {
+            for r in (0..k).filter_map(|j| frame.row(row * k + j)) {
                 if let Some(b) = r.get(i * k..i * k + k) {
                     s += b.iter().map(|&p| u32::from(p)).sum::<u32>();
                 }
@@ -233,14 +363,14 @@ mod tests {
             seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
             (seed >> 24) as u8
         };
-        let mut img = [0u8; 37 * 9];
+        let mut img = [0u8; 37 * 33];
         for w in [1usize, 2, 3, 4, 5, 8, 13, 37] {
-            let h = 9;
+            let h = 33;
             for p in img.iter_mut() {
                 *p = next();
             }
             let view = ImageView::new(&img[..w * h], w, h).unwrap();
-            for k in 1..=4 {
+            for k in 1..=16 {
                 for row in 0..=h / k {
                     let (mut a, mut b) = ([3u8; 40], [3u8; 40]);
                     downsample_row(&view, k, row, &mut a);

@@ -55,13 +55,15 @@ pub(crate) fn split_u8x4(d: u32) -> (u32, u32) {
     (d & 0x00ff_00ff, (d >> 8) & 0x00ff_00ff)
 }
 
-/// The four bytes of a 4-byte chunk as a little-endian word (byte 0 in the low lane).
+/// The first four bytes of a chunk as a little-endian word (byte 0 in the low lane); 0 for
+/// a shorter chunk. One (unaligned) word load where the target allows it.
 #[inline(always)]
 pub(crate) fn word(c: &[u8]) -> u32 {
-    match *c {
-        [a, b, c, d, ..] => u32::from_le_bytes([a, b, c, d]),
-        _ => 0,
+    if c.len() < 4 {
+        return 0;
     }
+    // Safety: `c` has at least four bytes; the read is unaligned and copies them.
+    u32::from_le(unsafe { c.as_ptr().cast::<u32>().read_unaligned() })
 }
 
 /// Lane-wise minimum of two `u16` pairs with their indices: where `a`'s lane is strictly
@@ -148,15 +150,6 @@ pub(crate) fn min2_u16x2(a: u32, b: u32) -> u32 {
     lo | hi << 16
 }
 
-/// Two `u16` as one pair (the first in the low lane); `u32::MAX` for a shorter slice.
-#[inline(always)]
-pub(crate) fn pair(c: &[u16]) -> u32 {
-    match *c {
-        [a, b, ..] => u32::from(a) | u32::from(b) << 16,
-        _ => u32::MAX,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -179,7 +172,5 @@ mod tests {
         assert_eq!((m, i), (5 | 3 << 16, 1 | 9 << 16));
         assert_eq!(min2_u16x2(5 | 7 << 16, 4 | 9 << 16), 4 | 7 << 16);
         assert_eq!(min2_u16x2(u32::MAX, 3 | 65535 << 16), 3 | 65535 << 16);
-        let p = [1u16, 2, 0];
-        assert_eq!((pair(&p[..2]), pair(&p[..1])), (0x0002_0001, u32::MAX));
     }
 }

@@ -64,6 +64,14 @@ pub struct Args {
     /// stereo: relief searched below the ground under the rover, metres.
     #[arg(long, allow_negative_numbers = true, default_value_t = orbfix::stereo::StereoParams::default().relief_below_m)]
     relief_below: f32,
+    /// stereo: coarser scales near rows may be matched at (0..=2; 0: every row at the
+    /// working size).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().scale_levels)]
+    scale_levels: u8,
+    /// stereo: a row goes to a coarser scale only where a quarter-pixel disparity error
+    /// there moves its flat ground by at most this, metres.
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().scale_error_m)]
+    scale_error: f32,
     /// stereo: output band of the core, rows.
     #[arg(long, default_value_t = 16)]
     band_rows: usize,
@@ -128,6 +136,8 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         min_support: args.min_support,
         relief_above_m: args.relief_above,
         relief_below_m: args.relief_below,
+        scale_levels: args.scale_levels,
+        scale_error_m: args.scale_error,
         ..Default::default()
     };
     let opts = orbfix_host::stereo_bench::StereoBenchOptions {
