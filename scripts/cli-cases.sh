@@ -16,7 +16,7 @@ sed 's/"m_per_px": *[0-9.]*/"m_per_px": -0.25/' map.json > neg-res.json
 sed 's/"origin_x_m": *[0-9.e+-]*/"origin_x_m": 1e38/' map.json > far-origin.json
 echo '{"origin_x_m": 1' > cut.json
 head -c 2000 map.png > cut.png
-W=../../weights/matcher-v1.ofw
+W=../../weights/matcher-v2.ofw
 head -c 1000 "$W" > trunc.ofw
 python3 -c "import sys; b=bytearray(open(sys.argv[1],'rb').read()); b[5000]^=0x10; open('corrupt.ofw','wb').write(b)" "$W"
 python3 -c "import sys; b=bytearray(open(sys.argv[1],'rb').read()); b[8]^=0x01; open('layers.ofw','wb').write(b)" "$W"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The shipped int8 network in TensorFlow Lite Micro's reference interpreter vs the core,
-# byte for byte (docs/interop.md). Exports weights/matcher-v1.ofw with
+# byte for byte (docs/interop.md). Exports weights/matcher-v2.ofw with
 # `orbfix export-tflite`, runs real top-down inputs (rover top-downs and satellite crops of
 # a generated dataset, `orbfix prepare-inputs`) and random int8 inputs through TFLM
 # (PyPI tflite-micro, pinned, in .cache/py-venv) and through `orbfix embed`, and prints

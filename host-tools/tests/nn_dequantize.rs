@@ -9,7 +9,7 @@ use orbfix_host::nn::quantize::{dequantize, quantize};
 fn dequantized_shipped_weights_quantize_back_to_themselves() {
     let bytes = std::fs::read(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../weights/matcher-v1.ofw"
+        "/../weights/matcher-v2.ofw"
     ))
     .unwrap();
     let q = HostQModel::from_bytes(&bytes).unwrap();

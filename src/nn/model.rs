@@ -147,9 +147,9 @@ impl Default for Arena {
     }
 }
 
-/// The weight file shipped with the core (`weights/matcher-v1.ofw`, produced by
+/// The weight file shipped with the core (`weights/matcher-v2.ofw`, produced by
 /// `orbfix train` then `orbfix quantize`, see `docs/matcher.md`).
-pub static SHIPPED_WEIGHTS: &[u8] = include_bytes!("../../weights/matcher-v1.ofw");
+pub static SHIPPED_WEIGHTS: &[u8] = include_bytes!("../../weights/matcher-v2.ofw");
 
 /// The quantized siamese trunk with validated weights.
 #[derive(Clone, Copy, Debug)]

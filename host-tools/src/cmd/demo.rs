@@ -35,7 +35,7 @@ pub struct Args {
     /// baseline (ncc-hp2, ncc, l1, l2, ...).
     #[arg(long)]
     pub matcher: Option<String>,
-    /// CNN weight file (.ofw) [default: the shipped weights/matcher-v1.ofw].
+    /// CNN weight file (.ofw) [default: the shipped weights/matcher-v2.ofw].
     #[arg(long)]
     pub weights: Option<PathBuf>,
     /// Depth of the top-down reprojection: stereo (the rover's own stereo pairs, matched by

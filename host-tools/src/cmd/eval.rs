@@ -31,7 +31,7 @@ pub struct Args {
     #[arg(long, default_value = "fix")]
     pub matcher: String,
     /// CNN weight file (.ofw) for the fix matchers and their map products (default: the
-    /// shipped weights/matcher-v1.ofw).
+    /// shipped weights/matcher-v2.ofw).
     #[arg(long)]
     pub weights: Option<PathBuf>,
     /// Lighting: same-sun (the study's: 30 deg elevation, azimuth 135 deg) or cross-sun

@@ -29,7 +29,7 @@ pub fn run(a: Args) -> Result<()> {
     // Only what the core accepts is exported.
     let bytes = orbfix_host::nn::weights_file::load_bytes(a.weights.as_deref())?;
     let name = a.weights.as_ref().map_or_else(
-        || "weights/matcher-v1.ofw (shipped)".to_string(),
+        || "weights/matcher-v2.ofw (shipped)".to_string(),
         |p| p.display().to_string(),
     );
     let q = HostQModel::from_bytes(&bytes).with_context(|| format!("reading {name}"))?;

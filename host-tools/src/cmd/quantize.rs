@@ -23,8 +23,8 @@ pub struct Args {
     /// Float checkpoint written by `orbfix train`.
     #[arg(long, default_value = "runs/matcher/checkpoint.safetensors")]
     pub checkpoint: PathBuf,
-    /// Output weight file (the core embeds weights/matcher-v1.ofw).
-    #[arg(long, default_value = "weights/matcher-v1.ofw")]
+    /// Output weight file (the core embeds weights/matcher-v2.ofw).
+    #[arg(long, default_value = "weights/matcher-v2.ofw")]
     pub out: PathBuf,
     /// World seed.
     #[arg(long, default_value_t = 1)]

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct WeightsArg {
     /// Weight file of the CNN matcher (.ofw, written by `orbfix quantize`); default: the
-    /// weights shipped in the core (weights/matcher-v1.ofw). Checked (CRC, shapes,
+    /// weights shipped in the core (weights/matcher-v2.ofw). Checked (CRC, shapes,
     /// quantization ranges, accumulator bound) before use.
     #[arg(long, value_name = "FILE")]
     pub weights: Option<PathBuf>,
@@ -37,7 +37,7 @@ impl WeightsArg {
     pub fn describe(&self) -> String {
         match &self.weights {
             Some(p) => p.display().to_string(),
-            None => "shipped (weights/matcher-v1.ofw)".into(),
+            None => "shipped (weights/matcher-v2.ofw)".into(),
         }
     }
 }
