@@ -60,3 +60,65 @@ fn map_regions_and_crops_agree() {
         "only {same} of 6400 pixels agree"
     );
 }
+
+/// FNV-1a over the bits of what the rasterizer is given: every level's grid (heights,
+/// albedo, placement), the node attributes (normals, lit fractions from the shadow sweep),
+/// for a walk of locations with and without the shared tile cache, and the satellite crops.
+fn preparation_digest() -> u64 {
+    use orbfix_host::render::{raster::NodeAttrs, shadow::ShadowField, terrain::Terrain};
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut eat = |bits: &mut dyn Iterator<Item = u64>| {
+        for v in bits {
+            for b in v.to_le_bytes() {
+                h = (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+    };
+    let world = World::new(11);
+    let mut o = RenderOptions::default();
+    o.camera.width_px = 320;
+    o.camera.height_px = 180;
+    let focal = o.camera_params().focal_px() as f64;
+    let cache = TileCache::new(1 << 22);
+    let suns = [Sun::default(), Sun::new(12.0, 250.0).unwrap()];
+    for i in 0..3 {
+        let (x, y) = (300.0 + 97.0 * i as f64, 400.0 + 61.0 * i as f64);
+        let sun = suns[i % 2];
+        for c in [Some(&cache), None] {
+            let t = Terrain::around_cached(&world, x, y, &o, focal, c);
+            for l in &t.levels {
+                let g = &l.grid;
+                eat(&mut [g.origin_x_m, g.origin_y_m, g.m_per_px]
+                    .iter()
+                    .map(|v| v.to_bits()));
+                eat(&mut [g.nx as u64, g.ny as u64].into_iter());
+                eat(&mut l.bounds.iter().map(|v| v.to_bits()));
+                eat(&mut g
+                    .height_m
+                    .iter()
+                    .chain(&g.albedo)
+                    .map(|v| v.to_bits() as u64));
+            }
+            let s = ShadowField::build(&t, &sun, o.shadow_reach_m);
+            let a = NodeAttrs::compute(&t, &s);
+            for (n, l) in a.normal.iter().zip(&a.lit) {
+                eat(&mut n.iter().flatten().chain(l).map(|v| v.to_bits() as u64));
+            }
+        }
+        let (img, _) =
+            render::render_satellite_crop_cached(&world, x, y, 64, 0.25, sun, &o, Some(&cache))
+                .unwrap();
+        eat(&mut img.as_raw().iter().map(|&b| b as u64));
+    }
+    h
+}
+
+#[test]
+fn terrain_preparation_is_bit_identical() {
+    // Pins the terrain levels, shadows and node attributes the rasterizer draws (and the
+    // satellite crops): a speed-up of the preparation must leave them bit for bit.
+    let digest = preparation_digest();
+    assert_eq!(digest, PREPARATION_DIGEST, "digest now {digest:#018x}");
+}
+
+const PREPARATION_DIGEST: u64 = 0xda3e_0e99_6eb3_3d3b;

@@ -348,6 +348,58 @@ fn the_world_is_bit_identical_across_machines() {
 
 const GOLDEN_DIGEST: u64 = 0xd71a_d8ad_31ed_b2f8;
 
+/// FNV-1a over the bits of many grids: footprint-filtered ones at the renderer's mesh
+/// spacings (0.1 m to 12.8 m, fine and coarse sampling paths), point grids at coarse
+/// spacings, odd sizes and origins, the flat world, and filtered point queries.
+fn sampler_digest() -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut eat = |v: &[f32]| {
+        for x in v {
+            for b in x.to_bits().to_le_bytes() {
+                h = (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+    };
+    let world = World::new(7);
+    let flat = World::flat(7);
+    let mut m = 0.1;
+    for k in 0..8 {
+        // Origins on the renderer's lattice (tile corners) and off it.
+        let (ox, oy) = (64.0 * m * (3 + k) as f64, 64.0 * m * (11 - k) as f64);
+        let g = world.sample_grid_filtered(ox, oy, m, 64, 64, m);
+        eat(&g.height_m);
+        eat(&g.albedo);
+        let g = world.sample_grid_filtered(-ox - 0.37, oy + 1.9, m, 37, 23, m);
+        eat(&g.height_m);
+        eat(&g.albedo);
+        let g = flat.sample_grid_filtered(ox + 3.3, -oy, m, 29, 31, 1.5 * m);
+        eat(&g.height_m);
+        eat(&g.albedo);
+        let g = world.sample_grid(ox - 77.7, oy, m, 33, 17);
+        eat(&g.height_m);
+        eat(&g.albedo);
+        m *= 2.0;
+    }
+    for (x, y, fp) in [
+        (10.0, 20.0, 0.3),
+        (-1234.5, 987.6, 2.0),
+        (4000.1, 4000.2, 9.0),
+    ] {
+        eat(&[world.albedo_filtered(x, y, fp) as f32]);
+    }
+    h
+}
+
+#[test]
+fn every_sampling_path_is_bit_identical() {
+    // Pins the values of every grid path the renderer uses (see `sampler_digest`); a change
+    // of the sampler's speed must not move it. It changes only with the terrain model.
+    let digest = sampler_digest();
+    assert_eq!(digest, SAMPLER_DIGEST, "digest now {digest:#018x}");
+}
+
+const SAMPLER_DIGEST: u64 = 0xada0_a785_2f46_edeb;
+
 #[test]
 fn flat_world_has_no_relief_and_the_same_albedo() {
     let (world, flat) = (World::new(5), World::flat(5));
