@@ -258,12 +258,21 @@ impl World {
                 let ys: Vec<f64> = (0..rows)
                     .map(|r| origin_y_m - ((band * tile + r) as f64 + 0.5) * m_per_px)
                     .collect();
+                // The sums before features, row by row (vectorized noise).
+                let mut bh = vec![0.0; rows * nx];
+                let mut ba = vec![0.0; rows * nx];
+                let mut tmp = vec![0.0; nx];
+                for (r, &y) in ys.iter().enumerate() {
+                    let span = r * nx..(r + 1) * nx;
+                    self.base_row(&xs, y, filt, &mut bh[span.clone()], &mut ba[span], &mut tmp);
+                }
                 let mut items = Vec::new();
                 for (t, xt) in xs.chunks(tile).enumerate() {
                     self.fill_tile(
                         xt,
                         &ys,
                         &mut items,
+                        (&bh, &ba),
                         hs,
                         als,
                         nx,
@@ -385,6 +394,48 @@ impl World {
         }
     }
 
+    /// [`World::base`] (relief per the configuration, albedo wanted) at `(xs[i], y)`, bit for
+    /// bit: heights into `h`, albedo into `a` (`tmp`: scratch as long as `xs`).
+    fn base_row(
+        &self,
+        xs: &[f64],
+        y: f64,
+        filt: &Filter,
+        h: &mut [f64],
+        a: &mut [f64],
+        tmp: &mut [f64],
+    ) {
+        if self.cfg.relief {
+            self.relief.row(xs, y, h);
+        } else {
+            h.fill(0.0);
+        }
+        self.albedo_regional.row(xs, y, a);
+        self.albedo_fine.row(xs, y, tmp);
+        let mean = self.cfg.albedo_mean;
+        for (a, &f) in a.iter_mut().zip(tmp.iter()) {
+            *a = mean + *a + f;
+        }
+        if filt.rock_mean > 0.0 {
+            for a in a.iter_mut() {
+                *a += filt.rock_mean;
+            }
+        }
+    }
+
+    /// An accumulator starting from precomputed base sums (see [`World::base_row`]).
+    #[inline]
+    fn acc_from<'f>(&self, h: f64, a: f64, filt: &'f Filter) -> Acc<'f> {
+        Acc {
+            h,
+            a,
+            relief: self.cfg.relief,
+            want_a: true,
+            boost: self.cfg.fresh_crater_albedo_boost,
+            filt,
+        }
+    }
+
     #[inline]
     fn eval(&self, x: f64, y: f64, want_h: bool, want_a: bool, filt: &Filter) -> (f64, f64) {
         if let Some(d) = &self.dem {
@@ -416,6 +467,7 @@ impl World {
         xs: &[f64],
         ys: &[f64],
         items: &mut Vec<Item>,
+        (base_h, base_a): (&[f64], &[f64]),
         hs: &mut [f32],
         als: &mut [f32],
         stride: usize,
@@ -449,10 +501,11 @@ impl World {
         }
         for (r, &y) in ys.iter().enumerate() {
             for (c, &x) in xs.iter().enumerate() {
+                let k = r * stride + col0 + c;
                 let (h, a) = if !gather {
                     self.eval(x, y, true, true, filt)
                 } else if rocks_per_pixel {
-                    let mut acc = self.base(x, y, relief, true, filt);
+                    let mut acc = self.acc_from(base_h[k], base_a[k], filt);
                     let point = filt.grown([x, y, x, y]);
                     let (k0, grow) = (filt.first_rock_class, filt.grow);
                     let rocks = &self.rocks;
@@ -470,13 +523,12 @@ impl World {
                     }
                     acc.finish()
                 } else {
-                    let mut acc = self.base(x, y, relief, true, filt);
+                    let mut acc = self.acc_from(base_h[k], base_a[k], filt);
                     for it in items.iter() {
                         acc.add(it.as_feature(), x, y);
                     }
                     acc.finish()
                 };
-                let k = r * stride + col0 + c;
                 hs[k] = h as f32;
                 als[k] = a as f32;
             }
