@@ -391,6 +391,45 @@ fn sampler_digest() -> u64 {
 }
 
 #[test]
+fn grid_windows_are_the_whole_grids_pixels() {
+    // A window samples only its pixels, with the values of the whole grid (the grid's own
+    // tiles, fine and coarse paths, partial tiles at the edges, point and filtered).
+    let world = World::new(3);
+    let flat = World::flat(3);
+    for (w, ox, oy, m, nx, ny, fp) in [
+        (&world, 0.0, 64.0 * 12.8, 12.8, 64, 64, 12.8),
+        (&world, -77.3, 1201.9, 3.2, 45, 37, 3.2),
+        (&world, 512.0, 512.0, 1.6, 64, 64, 1.6),
+        (&world, 100.1, -40.0, 0.8, 29, 33, 0.8),
+        (&world, 3.0, 7.0, 0.1, 40, 21, 0.1),
+        (&world, 900.0, 900.0, 5.0, 23, 19, 0.0),
+        (&flat, 250.0, 250.0, 6.4, 31, 17, 6.4),
+    ] {
+        let g = w.sample_grid_filtered(ox, oy, m, nx, ny, fp);
+        for (cols, rows) in [
+            (0..nx, 0..ny),
+            (0..1, 0..1),
+            (nx - 1..nx, ny - 1..ny),
+            (3..nx.min(19), 5..ny.min(22)),
+            (nx / 2..nx, 0..ny / 3),
+        ] {
+            let (h, a) = w.sample_grid_window(ox, oy, m, nx, ny, fp, cols.clone(), rows.clone());
+            assert_eq!(h.len(), cols.len() * rows.len());
+            for (k, r) in rows.clone().enumerate() {
+                for (j, c) in cols.clone().enumerate() {
+                    let i = r * nx + c;
+                    let q = k * cols.len() + j;
+                    assert_eq!(h[q].to_bits(), g.height_m[i].to_bits(), "{m} m: ({c}, {r})");
+                    assert_eq!(a[q].to_bits(), g.albedo[i].to_bits(), "{m} m: ({c}, {r})");
+                }
+            }
+        }
+        let (h, _) = w.sample_grid_window(ox, oy, m, nx, ny, fp, 0..nx + 1, 0..1);
+        assert!(h.is_empty(), "a window outside the grid is empty");
+    }
+}
+
+#[test]
 fn every_sampling_path_is_bit_identical() {
     // Pins the values of every grid path the renderer uses (see `sampler_digest`); a change
     // of the sampler's speed must not move it. It changes only with the terrain model.

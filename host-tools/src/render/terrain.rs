@@ -319,16 +319,22 @@ impl Terrain {
 /// are cheap to sample (the world's grid sampler) and rarely shared between locations.
 pub const CACHE_MIN_M: f64 = 0.75;
 
-/// Nodes per tile side.
+/// Nodes per side of the lattice tiles whose frame cached nodes are computed in (node
+/// `(c, r)` of tile `(tx, ty)` at `(tx * 64 * m + (c + 0.5) m, (ty + 1) * 64 * m - (r + 0.5) m)`,
+/// sampled as part of that 64 x 64 grid).
 const TILE_N: usize = 64;
+
+/// Nodes per side of the blocks the cache fills and keeps: a tile is sampled block by block
+/// as its blocks are needed (the same values as sampling the whole tile).
+const BLOCK_N: usize = 16;
 
 type TileKey = (u64, i64, i64);
 type TileData = std::sync::Arc<(Vec<f32>, Vec<f32>)>;
 
-/// Heights and albedo of world-lattice tiles (64 x 64 nodes) of coarse levels, shared by
-/// the renders of many locations of one world (e.g. a dataset run): far terrain is sampled
-/// once instead of once per location. Use one cache per world. Thread-safe; when it holds
-/// more than its node budget it is emptied.
+/// Heights and albedo of world-lattice blocks (16 x 16 nodes of 64 x 64 tiles) of coarse
+/// levels, shared by the renders of many locations of one world (e.g. a dataset run): far
+/// terrain is sampled once instead of once per location. Use one cache per world.
+/// Thread-safe; when it holds more than its node budget it is emptied.
 pub struct TileCache {
     tiles: std::sync::RwLock<std::collections::HashMap<TileKey, TileData>>,
     max_tiles: usize,
@@ -339,29 +345,36 @@ impl TileCache {
     pub fn new(max_nodes: usize) -> Self {
         Self {
             tiles: Default::default(),
-            max_tiles: (max_nodes / (TILE_N * TILE_N)).max(16),
+            max_tiles: (max_nodes / (BLOCK_N * BLOCK_N)).max(256),
         }
     }
 
-    fn tile(&self, world: &dyn Surface, m: f64, tx: i64, ty: i64) -> TileData {
-        let key = (m.to_bits(), tx, ty);
+    /// Block `(bx, by)` (node columns `bx * 16..`, northing indices `by * 16..`; row 0 is the
+    /// northernmost, index `by * 16 + 15`) of the level of spacing `m`.
+    fn tile(&self, world: &dyn Surface, m: f64, bx: i64, by: i64) -> TileData {
+        let key = (m.to_bits(), bx, by);
         if let Ok(map) = self.tiles.read() {
             if let Some(t) = map.get(&key) {
                 return t.clone();
             }
         }
-        // Tile (tx, ty): node columns tx*N.., node rows (northing index) ty*N.. (row 0 of the
-        // tile is the northernmost, index ty*N + N - 1).
-        let n = TILE_N;
-        let g = world.sample_grid_filtered(
-            (tx * n as i64) as f64 * m,
-            ((ty + 1) * n as i64) as f64 * m,
+        // The block's tile (tx, ty): node columns tx*N.., node rows (northing index)
+        // ty*N.. (row 0 of the tile is the northernmost, index ty*N + N - 1).
+        let (n, b) = (TILE_N as i64, BLOCK_N as i64);
+        let (tx, ty) = ((bx * b).div_euclid(n), (by * b).div_euclid(n));
+        let c0 = (bx * b - tx * n) as usize;
+        let r0 = ((ty + 1) * n - (by + 1) * b) as usize;
+        let (h, a) = world.sample_grid_window(
+            (tx * n) as f64 * m,
+            ((ty + 1) * n) as f64 * m,
             m,
-            n,
-            n,
+            TILE_N,
+            TILE_N,
             m,
+            c0..c0 + BLOCK_N,
+            r0..r0 + BLOCK_N,
         );
-        let t = std::sync::Arc::new((g.height_m, g.albedo));
+        let t = std::sync::Arc::new((h, a));
         if let Ok(mut map) = self.tiles.write() {
             if map.len() >= self.max_tiles {
                 map.clear();
@@ -371,7 +384,7 @@ impl TileCache {
         t
     }
 
-    /// The level square of [`sample_square`], assembled from tiles; tiles wholly inside
+    /// The level square of [`sample_square`], assembled from blocks; blocks wholly inside
     /// `hole` (shrunk by 3 nodes) are not fetched (left at 0, never read).
     fn square(
         &self,
@@ -388,7 +401,7 @@ impl TileCache {
         let r1 = ((cy - half) / m).floor() as i64 - 1;
         let nx = (c1 - c0) as usize;
         let ny = (r0 - r1) as usize;
-        let n = TILE_N as i64;
+        let n = BLOCK_N as i64;
         let mut height_m = vec![0f32; nx * ny];
         let mut albedo = vec![0f32; nx * ny];
         // Node (c, r) of the level: column gx = c0 + c, northing index gy = r0 - 1 - r.
@@ -427,7 +440,7 @@ impl TileCache {
                 let tc0 = (gx0 - tx * n) as usize;
                 let w = (gx1 - gx0) as usize;
                 let dst = r * nx + (gx0 - c0) as usize;
-                let src = tr * TILE_N + tc0;
+                let src = tr * BLOCK_N + tc0;
                 height_m[dst..dst + w].copy_from_slice(&t.0[src..src + w]);
                 albedo[dst..dst + w].copy_from_slice(&t.1[src..src + w]);
             }

@@ -515,6 +515,82 @@ impl CraterField {
         }
     }
 
+    /// [`CraterField::visit_rect`], also passing each crater's class and cell `(k, ix, iy)`
+    /// (for [`CraterField::cell_range`] and [`CraterField::reaches`]).
+    #[inline]
+    pub(crate) fn visit_rect_cells(
+        &self,
+        rect: [f64; 4],
+        fresh_only: bool,
+        mut f: impl FnMut(usize, i64, i64, &Crater),
+    ) {
+        let [x0, y0, x1, y1] = rect;
+        for (k, cls) in self.classes.iter().enumerate() {
+            let reach2 = cls.reach * cls.reach;
+            let ix0 = cell_of(x0 - cls.reach, cls.cell);
+            let ix1 = cell_of(x1 + cls.reach, cls.cell);
+            let iy0 = cell_of(y0 - cls.reach, cls.cell);
+            let iy1 = cell_of(y1 + cls.reach, cls.cell);
+            for iy in iy0..=iy1 {
+                for ix in ix0..=ix1 {
+                    self.for_cell(cls, ix, iy, |cx, cy, h, i| {
+                        let r2 = rect_dist2(rect, cx, cy);
+                        if r2 >= reach2 {
+                            return;
+                        }
+                        let shape = shape_of(h, i);
+                        if fresh_only {
+                            let deg = ((shape >> 32) as u32) as f64 * (1.0 / 4_294_967_296.0);
+                            if deg >= self.fresh_fraction {
+                                return;
+                            }
+                        }
+                        let c = self.make(cls, cx, cy, shape);
+                        let e = c.ejecta_extent_radii * c.radius_m();
+                        if r2 < e * e {
+                            f(k, ix, iy, &c);
+                        }
+                    });
+                }
+            }
+        }
+    }
+
+    /// Largest reach of class `k`'s craters, metres (0 past the last class).
+    pub(crate) fn class_reach(&self, k: usize) -> f64 {
+        self.classes.get(k).map_or(0.0, |c| c.reach)
+    }
+
+    /// Number of size classes.
+    pub(crate) fn class_count(&self) -> usize {
+        self.classes.len()
+    }
+
+    /// The cells `[i0, i1]` of class `k` that [`CraterField::visit_rect`] walks along one
+    /// axis for a rectangle spanning `[lo, hi]` on it (`(1, 0)`, none, past the last class).
+    #[inline]
+    pub(crate) fn cell_range(&self, k: usize, lo: f64, hi: f64) -> (i64, i64) {
+        self.classes.get(k).map_or((1, 0), |cls| {
+            (
+                cell_of(lo - cls.reach, cls.cell),
+                cell_of(hi + cls.reach, cls.cell),
+            )
+        })
+    }
+
+    /// The distance tests by which [`CraterField::visit_rect`]`(rect, ..)` visits crater `c`
+    /// of class `k` found in a cell it walks (see [`CraterField::cell_range`]; the
+    /// freshness filter is the caller's), bit for bit.
+    #[inline]
+    pub(crate) fn reaches(&self, rect: [f64; 4], k: usize, c: &Crater) -> bool {
+        let Some(cls) = self.classes.get(k) else {
+            return false;
+        };
+        let r2 = rect_dist2(rect, c.x_m, c.y_m);
+        let e = c.ejecta_extent_radii * c.radius_m();
+        r2 < cls.reach * cls.reach && r2 < e * e
+    }
+
     /// Every crater whose centre lies in `[x0, x1) x [y0, y1)` (metres) and whose diameter
     /// is at least `d_min_m`.
     pub(crate) fn in_rect(&self, x0: f64, y0: f64, x1: f64, y1: f64, d_min_m: f64) -> Vec<Crater> {

@@ -123,6 +123,43 @@ impl Filter {
     }
 }
 
+impl Filter {
+    /// Centre of `f` and the squared distance from it within which [`Acc::add`] may change a
+    /// sum: `add` at a point as far or farther returns false and changes nothing (this is
+    /// its first test, computed the same way), so callers may skip it there.
+    #[inline]
+    pub(super) fn reach(&self, f: Feature<'_>) -> [f64; 3] {
+        match f {
+            Feature::Crater(c) => {
+                let e = c.ejecta_extent_radii * c.radius_m();
+                let r = if self.fp > 0.0 {
+                    e + self.hf * core::f64::consts::SQRT_2
+                } else {
+                    e
+                };
+                [c.x_m, c.y_m, r * r]
+            }
+            Feature::Rock(r) => {
+                let rr = 0.5 * r.diameter_m;
+                let q = if self.fp > 0.0 {
+                    self.grow * rr + self.hf * core::f64::consts::SQRT_2
+                } else {
+                    rr
+                };
+                [r.x_m, r.y_m, q * q]
+            }
+        }
+    }
+}
+
+/// Whether `(x, y)` lies within a [`Filter::reach`] `[cx, cy, reach2]`: `dx^2 + dy^2` as
+/// [`Acc::add`] computes it.
+#[inline]
+pub(super) fn within([cx, cy, reach2]: [f64; 3], x: f64, y: f64) -> bool {
+    let (dx, dy) = (x - cx, y - cy);
+    dx * dx + dy * dy < reach2
+}
+
 /// Fraction (0..1) of the `fp`-wide square centred at offset `(dx, dy)` from a disc of radius
 /// `rr` that the disc covers: for discs smaller than the square, the exact overlap of the
 /// square with the disc's equal-area square (area-preserving: summed over a grid it is the

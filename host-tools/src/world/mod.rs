@@ -32,7 +32,7 @@ pub use grid::HeightGrid;
 pub use rocks::Rock;
 
 use craters::CraterField;
-use footprint::{Acc, Feature, Filter, Item};
+use footprint::{within, Acc, Feature, Filter, Item};
 use grid::check_rect;
 use noise::Fbm;
 use rayon::prelude::*;
@@ -240,49 +240,118 @@ impl World {
             d.fill_grid(&mut grid, filt.fp);
             return grid;
         }
-        let xs: Vec<f64> = (0..nx)
-            .map(|c| origin_x_m + (c as f64 + 0.5) * m_per_px)
-            .collect();
-        let rocks_per_pixel = m_per_px > FINE_GRID_M_PER_PX;
-        let tile = if rocks_per_pixel {
-            ((COARSE_TILE_MAX_M / m_per_px) as usize).clamp(2, TILE)
-        } else {
-            ((FINE_TILE_MAX_M / m_per_px) as usize).clamp(1, TILE)
+        let spec = GridSpec {
+            ox: origin_x_m,
+            oy: origin_y_m,
+            m: m_per_px,
+            nx,
+            ny,
         };
+        // Bands of whole tiles, about WINDOW pixels high, in parallel; each band in windows
+        // of whole tiles about WINDOW pixels wide.
+        let tile = spec.tile();
+        let band = tile * (WINDOW / tile).max(1);
         grid.height_m
-            .par_chunks_mut(nx * tile)
-            .zip(grid.albedo.par_chunks_mut(nx * tile))
+            .par_chunks_mut(nx * band)
+            .zip(grid.albedo.par_chunks_mut(nx * band))
             .enumerate()
-            .for_each(|(band, (hs, als))| {
-                let rows = hs.len() / nx;
-                let ys: Vec<f64> = (0..rows)
-                    .map(|r| origin_y_m - ((band * tile + r) as f64 + 0.5) * m_per_px)
+            .for_each(|(b, (hs, als))| {
+                let rows = b * band..b * band + hs.len() / nx;
+                // The band's base sums in whole rows (long vectorized runs).
+                let xs: Vec<f64> = (0..nx)
+                    .map(|c| origin_x_m + (c as f64 + 0.5) * m_per_px)
                     .collect();
-                // The sums before features, row by row (vectorized noise).
-                let mut bh = vec![0.0; rows * nx];
-                let mut ba = vec![0.0; rows * nx];
+                let mut bh = vec![0.0; rows.len() * nx];
+                let mut ba = vec![0.0; rows.len() * nx];
                 let mut tmp = vec![0.0; nx];
-                for (r, &y) in ys.iter().enumerate() {
-                    let span = r * nx..(r + 1) * nx;
+                for (k, r) in rows.clone().enumerate() {
+                    let y = origin_y_m - (r as f64 + 0.5) * m_per_px;
+                    let span = k * nx..(k + 1) * nx;
                     self.base_row(&xs, y, filt, &mut bh[span.clone()], &mut ba[span], &mut tmp);
                 }
-                let mut items = Vec::new();
-                for (t, xt) in xs.chunks(tile).enumerate() {
-                    self.fill_tile(
-                        xt,
-                        &ys,
-                        &mut items,
-                        (&bh, &ba),
-                        hs,
-                        als,
-                        nx,
-                        t * tile,
-                        rocks_per_pixel,
+                let base = Base {
+                    h: &bh,
+                    a: &ba,
+                    stride: nx,
+                    c0: 0,
+                    r0: rows.start,
+                };
+                let mut scratch = Scratch::default();
+                let mut c0 = 0;
+                while c0 < nx {
+                    let c1 = (c0 + band).min(nx);
+                    self.fill_window(
+                        &spec,
                         filt,
+                        c0..c1,
+                        rows.clone(),
+                        Some(base),
+                        &mut scratch,
+                        (&mut hs[c0..], &mut als[c0..], nx),
                     );
+                    c0 = c1;
                 }
             });
         grid
+    }
+
+    /// Pixels `cols x rows` of the grid that [`World::sample_grid_filtered`]`(origin_x_m,
+    /// origin_y_m, m_per_px, nx, ny, footprint_m)` samples, with exactly its values, the rest
+    /// of the grid not sampled: heights and albedo row-major, `cols.len()` wide. Empty when
+    /// the window is empty or not inside the grid, or the grid exceeds [`MAX_GRID_PIXELS`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn sample_grid_window(
+        &self,
+        origin_x_m: f64,
+        origin_y_m: f64,
+        m_per_px: f64,
+        nx: usize,
+        ny: usize,
+        footprint_m: f64,
+        cols: std::ops::Range<usize>,
+        rows: std::ops::Range<usize>,
+    ) -> (Vec<f32>, Vec<f32>) {
+        let ok = nx.checked_mul(ny).is_some_and(|n| n <= MAX_GRID_PIXELS)
+            && cols.start < cols.end
+            && rows.start < rows.end
+            && cols.end <= nx
+            && rows.end <= ny;
+        if !ok {
+            return (Vec::new(), Vec::new());
+        }
+        let w = cols.len();
+        let n = w * rows.len();
+        let (mut hs, mut als) = (vec![0f32; n], vec![0f32; n]);
+        let filt = Filter::new(self, footprint_m);
+        if let Some(d) = &self.dem {
+            for (k, r) in rows.clone().enumerate() {
+                let y = origin_y_m - (r as f64 + 0.5) * m_per_px;
+                for (j, c) in cols.clone().enumerate() {
+                    let x = origin_x_m + (c as f64 + 0.5) * m_per_px;
+                    let (h, a) = d.sample(x, y, filt.fp);
+                    hs[k * w + j] = h as f32;
+                    als[k * w + j] = a as f32;
+                }
+            }
+            return (hs, als);
+        }
+        let spec = GridSpec {
+            ox: origin_x_m,
+            oy: origin_y_m,
+            m: m_per_px,
+            nx,
+            ny,
+        };
+        self.fill_window(
+            &spec,
+            &filt,
+            cols,
+            rows,
+            None,
+            &mut Scratch::default(),
+            (&mut hs, &mut als, w),
+        );
+        (hs, als)
     }
 
     /// [`World::sample_grid`] with its input checked: finite origin, positive finite
@@ -455,86 +524,378 @@ impl World {
         acc.finish()
     }
 
-    /// Fills one tile of a grid (pixel centres `xs` x `ys`, written at column `col0` of rows
-    /// of `stride` pixels): gathers the craters (and, unless `rocks_per_pixel`, the boulders)
-    /// reaching the tile once, then sums them per pixel in the same order as
-    /// [`World::eval`], so the results are identical. With `rocks_per_pixel` (coarse grids,
-    /// where a tile would touch many boulder cells for few pixels) each pixel looks its
-    /// boulders up itself.
+    /// Fills pixels `cols x rows` of the grid `g` (not empty, inside the grid) into `out`
+    /// (heights, albedo, row stride; pixel `(c, r)` at `(r - rows.start) * stride + c -
+    /// cols.start`), exactly as sampling the whole grid would: the grid's tiles (whole
+    /// tiles of [`GridSpec::tile`] pixels from its north-west corner, partial ones at the
+    /// east and south edges) each gather the craters (and, on fine grids, the boulders) that
+    /// reach them, then every pixel sums its tile's features in the one fixed order, so a
+    /// pixel's value does not depend on the window. Coarse grids gather the craters of the
+    /// window's tiles at once and hand each tile the ones its own gathering would have
+    /// visited (the same cell and distance tests, in the same order): most cells of small
+    /// crater classes are then visited once, not once per tile.
     #[allow(clippy::too_many_arguments)]
-    fn fill_tile(
+    fn fill_window(
         &self,
-        xs: &[f64],
-        ys: &[f64],
-        items: &mut Vec<Item>,
-        (base_h, base_a): (&[f64], &[f64]),
-        hs: &mut [f32],
-        als: &mut [f32],
-        stride: usize,
-        col0: usize,
-        rocks_per_pixel: bool,
+        g: &GridSpec,
         filt: &Filter,
+        cols: std::ops::Range<usize>,
+        rows: std::ops::Range<usize>,
+        base: Option<Base<'_>>,
+        scratch: &mut Scratch,
+        (hs, als, stride): (&mut [f32], &mut [f32], usize),
     ) {
-        let relief = self.cfg.relief;
-        let (Some(&xa), Some(&xb), Some(&ya), Some(&yb)) =
-            (xs.first(), xs.last(), ys.first(), ys.last())
-        else {
-            return;
+        let tile = g.tile();
+        let rocks_per_pixel = g.m > FINE_GRID_M_PER_PX;
+        let w = cols.len();
+        let Scratch {
+            xs,
+            ys,
+            bh,
+            ba,
+            tmp,
+            items,
+            pre,
+            found,
+            found_pre,
+            bins,
+            rects,
+        } = scratch;
+        // Pixel centres of the window's tiles (columns from the first tile's start).
+        let (t0, t1) = (cols.start / tile, (cols.end - 1) / tile + 1);
+        let (b0, b1) = (rows.start / tile, (rows.end - 1) / tile + 1);
+        let cs = t0 * tile;
+        let ce = (t1 * tile).min(g.nx);
+        xs.clear();
+        xs.extend((cs..ce).map(|c| g.ox + (c as f64 + 0.5) * g.m));
+        let rs = b0 * tile;
+        let re = (b1 * tile).min(g.ny);
+        ys.clear();
+        ys.extend((rs..re).map(|r| g.oy - (r as f64 + 0.5) * g.m));
+        // The sums before features, row by row (vectorized noise), unless given.
+        let base = match base {
+            Some(b) => b,
+            None => {
+                bh.clear();
+                bh.resize(w * rows.len(), 0.0);
+                ba.clear();
+                ba.resize(w * rows.len(), 0.0);
+                tmp.clear();
+                tmp.resize(w, 0.0);
+                let xw = &xs[cols.start - cs..cols.end - cs];
+                for (k, r) in rows.clone().enumerate() {
+                    let span = k * w..(k + 1) * w;
+                    self.base_row(
+                        xw,
+                        ys[r - rs],
+                        filt,
+                        &mut bh[span.clone()],
+                        &mut ba[span],
+                        tmp,
+                    );
+                }
+                Base {
+                    h: bh,
+                    a: ba,
+                    stride: w,
+                    c0: cols.start,
+                    r0: rows.start,
+                }
+            }
         };
-        let finite = xa.is_finite() && xb.is_finite() && ya.is_finite() && yb.is_finite();
-        let single = xs.len() == 1 && ys.len() == 1;
-        let gather = finite && !single;
-        if gather {
-            let rect = filt.grown([xa.min(xb), ya.min(yb), xa.max(xb), ya.max(yb)]);
-            items.clear();
-            if rocks_per_pixel {
-                self.craters
-                    .visit_rect(rect, !relief, |c| items.push(Item::Crater(*c)));
-            } else {
-                self.features(rect, !relief, filt, |f| {
-                    items.push(match f {
-                        Feature::Crater(c) => Item::Crater(*c),
-                        Feature::Rock(r) => Item::Rock(*r),
-                    })
+        // Each tile: its pixel centres, its gathering rectangle (None: pixels evaluated one
+        // by one, as for a single-pixel or non-finite tile).
+        let tile_rect = |t: usize, b: usize| {
+            let xt = &xs[t * tile - cs..((t + 1) * tile).min(g.nx) - cs];
+            let yt = &ys[b * tile - rs..((b + 1) * tile).min(g.ny) - rs];
+            let (xa, xb, ya, yb) = (xt[0], xt[xt.len() - 1], yt[0], yt[yt.len() - 1]);
+            let finite = xa.is_finite() && xb.is_finite() && ya.is_finite() && yb.is_finite();
+            let single = xt.len() == 1 && yt.len() == 1;
+            (finite && !single)
+                .then(|| filt.grown([xa.min(xb), ya.min(yb), xa.max(xb), ya.max(yb)]))
+        };
+        let (nt, nb) = (t1 - t0, b1 - b0);
+        // Binned when the tiles' rectangles run east and south in order (the usual grid:
+        // finite, positive spacing), so that a crater finds its tiles by bisection.
+        let ordered = g.m > 0.0
+            && xs.iter().chain(ys.iter()).all(|v| v.is_finite())
+            && xs.windows(2).all(|p| p[0] < p[1])
+            && ys.windows(2).all(|p| p[0] > p[1]);
+        let binned = rocks_per_pixel && nt * nb > 1 && ordered;
+        if binned {
+            // One gathering over the union of the tiles' rectangles, then each crater to
+            // the tiles whose own gathering visits it.
+            rects.clear();
+            for b in b0..b1 {
+                for t in t0..t1 {
+                    rects.push(tile_rect(t, b));
+                }
+            }
+            let mut union: Option<[f64; 4]> = None;
+            for r in rects.iter().flatten() {
+                union = Some(match union {
+                    None => *r,
+                    Some(u) => [
+                        u[0].min(r[0]),
+                        u[1].min(r[1]),
+                        u[2].max(r[2]),
+                        u[3].max(r[3]),
+                    ],
                 });
             }
-        }
-        for (r, &y) in ys.iter().enumerate() {
-            for (c, &x) in xs.iter().enumerate() {
-                let k = r * stride + col0 + c;
-                let (h, a) = if !gather {
-                    self.eval(x, y, true, true, filt)
-                } else if rocks_per_pixel {
-                    let mut acc = self.acc_from(base_h[k], base_a[k], filt);
-                    let point = filt.grown([x, y, x, y]);
-                    let (k0, grow) = (filt.first_rock_class, filt.grow);
-                    let rocks = &self.rocks;
-                    rocks.visit_rect_from(point, k0, grow, |rk| {
-                        acc.add(Feature::Rock(rk), x, y);
+            bins.resize_with(nt * nb, Vec::new);
+            for v in bins.iter_mut() {
+                v.clear();
+            }
+            found.clear();
+            if let Some(u) = union {
+                self.craters
+                    .visit_rect_cells(u, !self.cfg.relief, |k, ix, iy, c| {
+                        found.push((k, ix, iy, *c))
                     });
-                    for it in items.iter() {
-                        if let Item::Crater(cr) = it {
-                            if acc.add(Feature::Crater(cr), x, y) && rocks.crater_has_rocks(cr) {
-                                rocks.visit_crater_rect_from(cr, point, k0, grow, |rk| {
-                                    acc.add(Feature::Rock(rk), x, y);
-                                });
+                found_pre.clear();
+                found_pre.extend(found.iter().map(|f| filt.reach(Feature::Crater(&f.3))));
+                // Tile rectangles by column (west, east edges, both increasing) and by band
+                // row (south, north edges, both decreasing); a tile's rectangle is its
+                // column's and its row's (`tile_rect` grows each side alone). A single-pixel
+                // tile (no rectangle) can only be the last of both.
+                let col_x: Vec<(f64, f64)> = (t0..t1)
+                    .map(|t| {
+                        let xa = xs[t * tile - cs];
+                        let xb = xs[((t + 1) * tile).min(g.nx) - 1 - cs];
+                        let r = filt.grown([xa, 0.0, xb, 0.0]);
+                        (r[0], r[2])
+                    })
+                    .collect();
+                let row_y: Vec<(f64, f64)> = (b0..b1)
+                    .map(|b| {
+                        let ya = ys[b * tile - rs];
+                        let yb = ys[((b + 1) * tile).min(g.ny) - 1 - rs];
+                        let r = filt.grown([0.0, yb, 0.0, ya]);
+                        (r[1], r[3])
+                    })
+                    .collect();
+                let pitch = tile as f64 * g.m;
+                let (x_first, y_first) = (col_x[0].0, row_y[0].1);
+                // The cells each tile's gathering visits, per column / row and class.
+                let nk = self.craters.class_count();
+                let col_cells: Vec<(i64, i64)> = col_x
+                    .iter()
+                    .flat_map(|&(w, e)| (0..nk).map(move |k| (w, e, k)))
+                    .map(|(w, e, k)| self.craters.cell_range(k, w, e))
+                    .collect();
+                let row_cells: Vec<(i64, i64)> = row_y
+                    .iter()
+                    .flat_map(|&(s, n)| (0..nk).map(move |k| (s, n, k)))
+                    .map(|(s, n, k)| self.craters.cell_range(k, s, n))
+                    .collect();
+                for (j, (k, ix, iy, c)) in found.iter().enumerate() {
+                    let reach = self.craters.class_reach(*k);
+                    let (lx, hx) = (c.x_m - reach, c.x_m + reach);
+                    let (ly, hy) = (c.y_m - reach, c.y_m + reach);
+                    // Tiles whose rectangle meets the crater's reach square (a crater
+                    // outside it is not visited: its distance is at least `reach`).
+                    // (`partition_point`s, found from a guess on the tiles' pitch.)
+                    let gx = |v: f64| ((v - x_first) / pitch).max(0.0) as usize;
+                    let gy = |v: f64| ((y_first - v) / pitch).max(0.0) as usize;
+                    let ta = partition_from(nt, gx(lx), |t| col_x[t].1 < lx);
+                    let tb = partition_from(nt, gx(hx), |t| col_x[t].0 <= hx);
+                    let ba = partition_from(nb, gy(hy), |b| row_y[b].0 > hy);
+                    let bb = partition_from(nb, gy(ly), |b| row_y[b].1 >= ly);
+                    for bi in ba..bb {
+                        let (iy0, iy1) = row_cells[bi * nk + k];
+                        if *iy < iy0 || *iy > iy1 {
+                            continue;
+                        }
+                        for ti in ta..tb {
+                            let (ix0, ix1) = col_cells[ti * nk + k];
+                            if *ix < ix0 || *ix > ix1 {
+                                continue;
+                            }
+                            let i = bi * nt + ti;
+                            if let Some(r) = rects[i] {
+                                if self.craters.reaches(r, *k, c) {
+                                    bins[i].push(j as u32);
+                                }
                             }
                         }
                     }
-                    acc.finish()
+                }
+            }
+        }
+        for b in b0..b1 {
+            let yt = &ys[b * tile - rs..((b + 1) * tile).min(g.ny) - rs];
+            let r_lo = (b * tile).max(rows.start);
+            let r_hi = ((b + 1) * tile).min(rows.end);
+            for t in t0..t1 {
+                let xt = &xs[t * tile - cs..((t + 1) * tile).min(g.nx) - cs];
+                let c_lo = (t * tile).max(cols.start);
+                let c_hi = ((t + 1) * tile).min(cols.end);
+                let rect = tile_rect(t, b);
+                let bin: &[u32] = if binned {
+                    &bins[(b - b0) * nt + (t - t0)]
                 } else {
-                    let mut acc = self.acc_from(base_h[k], base_a[k], filt);
-                    for it in items.iter() {
-                        acc.add(it.as_feature(), x, y);
-                    }
-                    acc.finish()
+                    &[]
                 };
-                hs[k] = h as f32;
-                als[k] = a as f32;
+                if let (Some(rect), false) = (rect, binned) {
+                    items.clear();
+                    if rocks_per_pixel {
+                        self.craters
+                            .visit_rect(rect, !self.cfg.relief, |c| items.push(Item::Crater(*c)));
+                    } else {
+                        self.features(rect, !self.cfg.relief, filt, |f| {
+                            items.push(match f {
+                                Feature::Crater(c) => Item::Crater(*c),
+                                Feature::Rock(r) => Item::Rock(*r),
+                            })
+                        });
+                    }
+                    pre.clear();
+                    pre.extend(items.iter().map(|it| filt.reach(it.as_feature())));
+                }
+                for r in r_lo..r_hi {
+                    let y = yt[r - b * tile];
+                    for c in c_lo..c_hi {
+                        let x = xt[c - t * tile];
+                        let kb = (r - base.r0) * base.stride + (c - base.c0);
+                        let (h, a) = match rect {
+                            None => self.eval(x, y, true, true, filt),
+                            // Features whose `add` would do nothing here are skipped.
+                            Some(_) if binned => self.sum_pixel_coarse(
+                                x,
+                                y,
+                                (base.h[kb], base.a[kb]),
+                                bin.iter().filter_map(|&j| {
+                                    let j = j as usize;
+                                    within(found_pre[j], x, y).then(|| &found[j].3)
+                                }),
+                                filt,
+                            ),
+                            Some(_) if rocks_per_pixel => self.sum_pixel_coarse(
+                                x,
+                                y,
+                                (base.h[kb], base.a[kb]),
+                                items
+                                    .iter()
+                                    .zip(pre.iter())
+                                    .filter_map(|(it, &p)| match it {
+                                        Item::Crater(c) if within(p, x, y) => Some(c),
+                                        _ => None,
+                                    }),
+                                filt,
+                            ),
+                            Some(_) => {
+                                let mut acc = self.acc_from(base.h[kb], base.a[kb], filt);
+                                for (it, &p) in items.iter().zip(pre.iter()) {
+                                    if within(p, x, y) {
+                                        acc.add(it.as_feature(), x, y);
+                                    }
+                                }
+                                acc.finish()
+                            }
+                        };
+                        let k = (r - rows.start) * stride + (c - cols.start);
+                        hs[k] = h as f32;
+                        als[k] = a as f32;
+                    }
+                }
             }
         }
     }
+
+    /// Height and albedo of one pixel of a coarse grid's tile: its base sums, its own
+    /// background boulder look-up, then the tile's craters in their fixed order, each fresh
+    /// crater's boulders (looked up by the pixel) right after it.
+    #[inline]
+    fn sum_pixel_coarse<'c>(
+        &self,
+        x: f64,
+        y: f64,
+        (base_h, base_a): (f64, f64),
+        craters: impl Iterator<Item = &'c Crater>,
+        filt: &Filter,
+    ) -> (f64, f64) {
+        let mut acc = self.acc_from(base_h, base_a, filt);
+        let point = filt.grown([x, y, x, y]);
+        let (k0, grow) = (filt.first_rock_class, filt.grow);
+        let rocks = &self.rocks;
+        rocks.visit_rect_from(point, k0, grow, |rk| {
+            acc.add(Feature::Rock(rk), x, y);
+        });
+        for cr in craters {
+            if acc.add(Feature::Crater(cr), x, y) && rocks.crater_has_rocks(cr) {
+                rocks.visit_crater_rect_from(cr, point, k0, grow, |rk| {
+                    acc.add(Feature::Rock(rk), x, y);
+                });
+            }
+        }
+        acc.finish()
+    }
 }
+
+/// `(0..len).partition_point(pred)` for a predicate true on a prefix, searched from `guess`.
+#[inline]
+fn partition_from(len: usize, guess: usize, pred: impl Fn(usize) -> bool) -> usize {
+    let mut i = guess.min(len);
+    while i > 0 && !pred(i - 1) {
+        i -= 1;
+    }
+    while i < len && pred(i) {
+        i += 1;
+    }
+    i
+}
+
+/// A grid being sampled: north-west corner, metres per pixel, size.
+#[derive(Clone, Copy, Debug)]
+struct GridSpec {
+    ox: f64,
+    oy: f64,
+    m: f64,
+    nx: usize,
+    ny: usize,
+}
+
+impl GridSpec {
+    /// Side of the tiles that gather features, pixels.
+    fn tile(&self) -> usize {
+        if self.m > FINE_GRID_M_PER_PX {
+            ((COARSE_TILE_MAX_M / self.m) as usize).clamp(2, TILE)
+        } else {
+            ((FINE_TILE_MAX_M / self.m) as usize).clamp(1, TILE)
+        }
+    }
+}
+
+/// The sums before features ([`World::base_row`]) of pixels `(c, r)` at `(r - r0) * stride +
+/// c - c0`.
+#[derive(Clone, Copy)]
+struct Base<'a> {
+    h: &'a [f64],
+    a: &'a [f64],
+    stride: usize,
+    c0: usize,
+    r0: usize,
+}
+
+/// Buffers reused from window to window.
+#[derive(Default)]
+struct Scratch {
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    bh: Vec<f64>,
+    ba: Vec<f64>,
+    tmp: Vec<f64>,
+    items: Vec<Item>,
+    pre: Vec<[f64; 3]>,
+    found: Vec<(usize, i64, i64, Crater)>,
+    found_pre: Vec<[f64; 3]>,
+    bins: Vec<Vec<u32>>,
+    rects: Vec<Option<[f64; 4]>>,
+}
+
+/// Side of the windows a grid is filled by, pixels (rounded down to whole tiles).
+const WINDOW: usize = 16;
 
 /// Largest grid `sample_grid` samples: 2^28 pixels (2 GiB of `f32` height and albedo).
 pub const MAX_GRID_PIXELS: usize = 1 << 28;

@@ -272,9 +272,18 @@ mod simd {
         let mut last_iy = _mm_set1_epi32(0);
         let mut have = false;
         let mut i = 0;
-        while i + 4 <= n {
-            // Safety: i + 4 <= n <= xs.len(), out.len().
-            let x = unsafe { _mm256_loadu_pd(xs.as_ptr().add(i)) };
+        while i < n {
+            // The last step pads its lanes with the last sample (computed, not stored).
+            let full = i + 4 <= n;
+            let x = if full {
+                // Safety: i + 4 <= n <= xs.len().
+                unsafe { _mm256_loadu_pd(xs.as_ptr().add(i)) }
+            } else {
+                let mut p = [xs[n - 1]; 4];
+                p[..n - i].copy_from_slice(&xs[i..n]);
+                // Safety: 4-element array.
+                unsafe { _mm256_loadu_pd(p.as_ptr()) }
+            };
             let u = _mm256_add_pd(
                 _mm256_mul_pd(_mm256_sub_pd(_mm256_mul_pd(x, cos), ysin), freq),
                 offx,
@@ -344,18 +353,26 @@ mod simd {
                 // Safety: 4-element array.
                 unsafe { _mm256_loadu_pd(g4.as_ptr()) }
             };
-            // Safety: i + 4 <= n.
-            unsafe {
-                let s = _mm256_loadu_pd(out.as_ptr().add(i));
-                _mm256_storeu_pd(
-                    out.as_mut_ptr().add(i),
-                    _mm256_add_pd(s, _mm256_mul_pd(amp, g)),
-                );
+            if full {
+                // Safety: i + 4 <= n <= out.len().
+                unsafe {
+                    let s = _mm256_loadu_pd(out.as_ptr().add(i));
+                    _mm256_storeu_pd(
+                        out.as_mut_ptr().add(i),
+                        _mm256_add_pd(s, _mm256_mul_pd(amp, g)),
+                    );
+                }
+            } else {
+                let mut q = [0.0; 4];
+                q[..n - i].copy_from_slice(&out[i..n]);
+                // Safety: 4-element array.
+                unsafe {
+                    let s = _mm256_loadu_pd(q.as_ptr());
+                    _mm256_storeu_pd(q.as_mut_ptr(), _mm256_add_pd(s, _mm256_mul_pd(amp, g)));
+                }
+                out[i..n].copy_from_slice(&q[..n - i]);
             }
             i += 4;
-        }
-        for k in i..n {
-            out[k] += o.amp * o.noise(xs[k], y);
         }
     }
 }
