@@ -137,3 +137,134 @@ fn terrain_preparation_is_bit_identical() {
 }
 
 const PREPARATION_DIGEST: u64 = 0xf4ef_2995_848a_462e;
+
+/// The cast-shadow sweep as first written (every lattice node, the whole extension towards
+/// the sun, the plain level search): lit fraction at `(x, y)` of the first lattice whose
+/// level square contains it.
+fn plain_shadow_lit(
+    t: &orbfix_host::render::terrain::Terrain,
+    sun: &Sun,
+    reach_m: f64,
+    pts: &[(f64, f64)],
+) -> Vec<f32> {
+    let tan_e = sun.elevation_deg.to_radians().tan();
+    let az = sun.azimuth_deg.to_radians();
+    let s = (az.sin(), az.cos());
+    let p = (az.cos(), -az.sin());
+    let lattices: Vec<_> = t
+        .levels
+        .iter()
+        .map(|level| {
+            let b = level.bounds;
+            let m = level.m();
+            let (cx, cy) = (0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3]));
+            let half = 0.5 * (b[2] - b[0]).hypot(b[3] - b[1]) + m;
+            let (a0, b0) = (-half, -half);
+            let n = (2.0 * half / m).ceil() as usize + 2;
+            let mut lit = vec![1.0f32; n * n];
+            let a_max = a0 + (n - 1) as f64 * m;
+            for j in 0..n {
+                let bj = b0 + j as f64 * m;
+                let at = |a: f64| (cx + a * s.0 + bj * p.0, cy + a * s.1 + bj * p.1);
+                let mut best = f64::NEG_INFINITY;
+                let mut a = a_max + reach_m;
+                while a > a_max {
+                    let (x, y) = at(a);
+                    let step = match t.height(x, y) {
+                        Some((h, res)) => {
+                            best = best.max(h - a * tan_e);
+                            res
+                        }
+                        None => m.max(reach_m / 64.0),
+                    };
+                    a -= step.max(m);
+                }
+                for i in (0..n).rev() {
+                    let a = a0 + i as f64 * m;
+                    let (x, y) = at(a);
+                    if let Some((h, _)) = t.height(x, y) {
+                        let g = h - a * tan_e;
+                        lit[j * n + i] = if g >= best - 1e-3 { 1.0 } else { 0.0 };
+                        best = best.max(g);
+                    }
+                }
+            }
+            (b, cx, cy, m, a0, b0, n, lit)
+        })
+        .collect();
+    pts.iter()
+        .map(|&(x, y)| {
+            for (b, cx, cy, m, a0, b0, n, lit) in &lattices {
+                if x >= b[0] && y >= b[1] && x <= b[2] && y <= b[3] {
+                    let (dx, dy) = (x - cx, y - cy);
+                    let fa = ((dx * s.0 + dy * s.1) - a0) / m;
+                    let fb = ((dx * p.0 + dy * p.1) - b0) / m;
+                    let ia = (fa.max(0.0) as usize).min(n - 2);
+                    let ib = (fb.max(0.0) as usize).min(n - 2);
+                    let ta = (fa - ia as f64).clamp(0.0, 1.0) as f32;
+                    let tb = (fb - ib as f64).clamp(0.0, 1.0) as f32;
+                    let i = ib * n + ia;
+                    let r0 = lit[i] * (1.0 - ta) + lit[i + 1] * ta;
+                    let r1 = lit[i + n] * (1.0 - ta) + lit[i + n + 1] * ta;
+                    return r0 * (1.0 - tb) + r1 * tb;
+                }
+            }
+            1.0
+        })
+        .collect()
+}
+
+#[test]
+fn shadow_sweep_matches_the_plain_sweep() {
+    // The sweep skips lattice nodes no query reads and extension points that cannot raise
+    // the horizon; its lit fractions must be those of the plain sweep everywhere.
+    use orbfix_host::render::{shadow::ShadowField, terrain::Terrain};
+    let world = World::new(4);
+    let mut o = RenderOptions::default();
+    o.camera.width_px = 160;
+    o.camera.height_px = 90;
+    o.max_range_m = 120.0;
+    o.shadow_reach_m = 80.0;
+    let focal = o.camera_params().focal_px() as f64;
+    let t = Terrain::around(&world, 1500.0, 700.0, &o, focal);
+    let b = t.levels.last().unwrap().bounds;
+    // Points over every level: a spiral out to the largest square, corners and edges.
+    let mut pts: Vec<(f64, f64)> = (0..4000)
+        .map(|i| {
+            let r = (b[2] - b[0]) * 0.5 * (i as f64 / 4000.0).sqrt();
+            let th = i as f64 * 2.399_963;
+            (1500.0 + r * th.cos(), 700.0 + r * th.sin())
+        })
+        .collect();
+    for l in &t.levels {
+        let [w, s, e, n] = l.bounds;
+        pts.extend([
+            (w, s),
+            (e, n),
+            (w, n),
+            (e, s),
+            (0.5 * (w + e), n),
+            (e, 0.5 * (s + n)),
+        ]);
+    }
+    for (el, az) in [
+        (30.0, 135.0),
+        (8.0, 0.0),
+        (20.0, 90.0),
+        (45.0, 180.0),
+        (3.0, 271.3),
+    ] {
+        let sun = Sun::new(el, az).unwrap();
+        let f = ShadowField::build(&t, &sun, o.shadow_reach_m);
+        let want = plain_shadow_lit(&t, &sun, o.shadow_reach_m, &pts);
+        let shadowed = want.iter().filter(|&&v| v < 1.0).count();
+        assert!(shadowed > 0, "sun {el}/{az}: some shadow expected");
+        for (&(x, y), &w) in pts.iter().zip(&want) {
+            assert_eq!(
+                f.lit(x, y).to_bits(),
+                w.to_bits(),
+                "sun {el}/{az} at ({x}, {y})"
+            );
+        }
+    }
+}

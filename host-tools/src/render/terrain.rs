@@ -36,12 +36,26 @@ impl Level {
     /// Bilinear height at `(x, y)`, or `None` outside the node lattice.
     #[inline]
     pub fn height(&self, x: f64, y: f64) -> Option<f64> {
+        self.locate(x, y).map(|(fx, fy)| self.interpolate(fx, fy))
+    }
+
+    /// `(x, y)` in node units (`(fx, fy)` with node `(c, r)` at `(c, r)`), or `None` outside
+    /// the node lattice: the first half of [`Level::height`].
+    #[inline]
+    pub(crate) fn locate(&self, x: f64, y: f64) -> Option<(f64, f64)> {
         let g = &self.grid;
         let fx = (x - g.origin_x_m) / g.m_per_px - 0.5;
         let fy = (g.origin_y_m - y) / g.m_per_px - 0.5;
         if !(fx >= 0.0 && fy >= 0.0 && fx <= (g.nx - 1) as f64 && fy <= (g.ny - 1) as f64) {
             return None;
         }
+        Some((fx, fy))
+    }
+
+    /// The bilinear height at node coordinates from [`Level::locate`].
+    #[inline]
+    pub(crate) fn interpolate(&self, fx: f64, fy: f64) -> f64 {
+        let g = &self.grid;
         let c = (fx as usize).min(g.nx.saturating_sub(2));
         let r = (fy as usize).min(g.ny.saturating_sub(2));
         let tx = fx - c as f64;
@@ -50,7 +64,7 @@ impl Level {
         let h = &g.height_m;
         let top = h[i] as f64 * (1.0 - tx) + h[i + 1] as f64 * tx;
         let bot = h[i + g.nx] as f64 * (1.0 - tx) + h[i + g.nx + 1] as f64 * tx;
-        Some(top * (1.0 - ty) + bot * ty)
+        top * (1.0 - ty) + bot * ty
     }
 
     /// Unit normal at node `(c, r)` by central differences (one-sided at the edges).
@@ -68,6 +82,28 @@ impl Level {
         [n[0] / l, n[1] / l, n[2] / l]
     }
 
+    /// Whether the node lattice covers the whole square with a quarter node to spare, so
+    /// that [`Level::locate`] finds every point of the square (as levels built here do).
+    pub(crate) fn covers_bounds(&self) -> bool {
+        let g = &self.grid;
+        let b = self.bounds;
+        let (x0, x1) = (
+            (b[0] - g.origin_x_m) / g.m_per_px - 0.5,
+            (b[2] - g.origin_x_m) / g.m_per_px - 0.5,
+        );
+        let (y0, y1) = (
+            (g.origin_y_m - b[3]) / g.m_per_px - 0.5,
+            (g.origin_y_m - b[1]) / g.m_per_px - 0.5,
+        );
+        g.nx >= 2
+            && g.ny >= 2
+            && x0 >= 0.25
+            && y0 >= 0.25
+            && x1 <= g.nx as f64 - 1.25
+            && y1 <= g.ny as f64 - 1.25
+    }
+
+    #[inline]
     fn contains(&self, x: f64, y: f64) -> bool {
         x >= self.bounds[0] && y >= self.bounds[1] && x <= self.bounds[2] && y <= self.bounds[3]
     }
@@ -298,6 +334,53 @@ impl Terrain {
         Self {
             levels: vec![l0, l1],
         }
+    }
+
+    /// Whether every level's square lies inside the next one's (as [`Terrain::around`] and
+    /// [`Terrain::region`] build them): then the levels containing a point are a suffix.
+    pub(crate) fn nested(&self) -> bool {
+        self.levels.windows(2).all(|w| {
+            let (a, b) = (w[0].bounds, w[1].bounds);
+            b[0] <= a[0] && b[1] <= a[1] && b[2] >= a[2] && b[3] >= a[3]
+        })
+    }
+
+    /// The first level whose square contains `(x, y)` (`levels.len()`: none), for
+    /// [`Terrain::nested`] terrains only, searched from `hint` (and left there): points met
+    /// one after the other along a line mostly stay in one level.
+    #[inline]
+    pub(crate) fn first_containing(&self, x: f64, y: f64, hint: &mut usize) -> usize {
+        let n = self.levels.len();
+        // Containment is monotone in the level index (nested squares); past the last level
+        // counts as containing.
+        let inside = |j: usize| self.levels[j].contains(x, y);
+        let mut j = (*hint).min(n);
+        if j == n || inside(j) {
+            while j > 0 && inside(j - 1) {
+                j -= 1;
+            }
+        } else {
+            while j < n && !inside(j) {
+                j += 1;
+            }
+        }
+        *hint = j;
+        j
+    }
+
+    /// [`Terrain::height`]'s level and node coordinates at `(x, y)`: the first level from
+    /// `first` on whose square contains the point and whose node lattice covers it (`first`:
+    /// 0, or [`Terrain::first_containing`] of a nested terrain).
+    #[inline]
+    pub(crate) fn locate_from(&self, x: f64, y: f64, first: usize) -> Option<(usize, f64, f64)> {
+        for (k, l) in self.levels.iter().enumerate().skip(first) {
+            if l.contains(x, y) {
+                if let Some((fx, fy)) = l.locate(x, y) {
+                    return Some((k, fx, fy));
+                }
+            }
+        }
+        None
     }
 
     /// Composite height (metres) at `(x, y)` and the node spacing it comes from, or `None`
