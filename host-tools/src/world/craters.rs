@@ -316,7 +316,9 @@ const POWER_LAW_SEGMENTS: usize = 256;
 #[derive(Clone, Debug)]
 pub(crate) struct PowerLaw {
     da: f64,
-    db: f64,
+    /// `1 / da^2` and `1 / db^2`, as [`power_law_diameter`] computes them for `b = 2`.
+    inv_da2: f64,
+    inv_db2: f64,
     table: Vec<f64>,
 }
 
@@ -329,14 +331,21 @@ impl PowerLaw {
                 .map(|i| power_law_diameter(i as f64 / POWER_LAW_SEGMENTS as f64, da, db, b))
                 .collect()
         };
-        Self { da, db, table }
+        Self {
+            da,
+            inv_da2: 1.0 / (da * da),
+            inv_db2: 1.0 / (db * db),
+            table,
+        }
     }
 
     /// Diameter for a uniform draw `u` in `[0, 1)`.
     #[inline]
     pub(crate) fn diameter(&self, u: f64) -> f64 {
         if self.table.is_empty() {
-            return power_law_diameter(u, self.da, self.db, 2.0);
+            // `power_law_diameter(u, da, db, 2.0)` with its two constants kept.
+            let (a, c) = (self.inv_da2, self.inv_db2);
+            return 1.0 / (a - u * (a - c)).sqrt();
         }
         let t = u * POWER_LAW_SEGMENTS as f64;
         let i = (t as usize).min(POWER_LAW_SEGMENTS - 1);
@@ -518,10 +527,14 @@ impl CraterField {
     /// [`CraterField::visit_rect`], also passing each crater's class and cell `(k, ix, iy)`
     /// (for [`CraterField::cell_range`] and [`CraterField::reaches`]).
     #[inline]
-    pub(crate) fn visit_rect_cells(
+    ///
+    /// Craters for which `keep(k, x, y, fresh)` is false are skipped (class, centre, and
+    /// whether the crater may be fresh; asked before the crater is drawn in full).
+    pub(crate) fn visit_rect_cells_if(
         &self,
         rect: [f64; 4],
         fresh_only: bool,
+        mut keep: impl FnMut(usize, f64, f64, bool) -> bool,
         mut f: impl FnMut(usize, i64, i64, &Crater),
     ) {
         let [x0, y0, x1, y1] = rect;
@@ -539,11 +552,13 @@ impl CraterField {
                             return;
                         }
                         let shape = shape_of(h, i);
-                        if fresh_only {
-                            let deg = ((shape >> 32) as u32) as f64 * (1.0 / 4_294_967_296.0);
-                            if deg >= self.fresh_fraction {
-                                return;
-                            }
+                        let deg = ((shape >> 32) as u32) as f64 * (1.0 / 4_294_967_296.0);
+                        let fresh = deg < self.fresh_fraction;
+                        if fresh_only && !fresh {
+                            return;
+                        }
+                        if !keep(k, cx, cy, fresh) {
+                            return;
                         }
                         let c = self.make(cls, cx, cy, shape);
                         let e = c.ejecta_extent_radii * c.radius_m();

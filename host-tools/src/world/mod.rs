@@ -556,9 +556,8 @@ impl World {
             tmp,
             items,
             pre,
-            found,
-            found_pre,
-            bins,
+            acc_h,
+            acc_a,
             rects,
         } = scratch;
         // Pixel centres of the window's tiles (columns from the first tile's start).
@@ -623,105 +622,69 @@ impl World {
             && ys.windows(2).all(|p| p[0] > p[1]);
         let binned = rocks_per_pixel && nt * nb > 1 && ordered;
         if binned {
-            // One gathering over the union of the tiles' rectangles, then each crater to
-            // the tiles whose own gathering visits it.
+            // One gathering over the union of the tiles' rectangles; each crater is summed
+            // into the pixels of the tiles whose own gathering visits it, as it is found.
             rects.clear();
             for b in b0..b1 {
                 for t in t0..t1 {
                     rects.push(tile_rect(t, b));
                 }
             }
-            let mut union: Option<[f64; 4]> = None;
-            for r in rects.iter().flatten() {
-                union = Some(match union {
-                    None => *r,
-                    Some(u) => [
-                        u[0].min(r[0]),
-                        u[1].min(r[1]),
-                        u[2].max(r[2]),
-                        u[3].max(r[3]),
-                    ],
-                });
-            }
-            bins.resize_with(nt * nb, Vec::new);
-            for v in bins.iter_mut() {
-                v.clear();
-            }
-            found.clear();
-            if let Some(u) = union {
-                self.craters
-                    .visit_rect_cells(u, !self.cfg.relief, |k, ix, iy, c| {
-                        found.push((k, ix, iy, *c))
-                    });
-                found_pre.clear();
-                found_pre.extend(found.iter().map(|f| filt.reach(Feature::Crater(&f.3))));
-                // Tile rectangles by column (west, east edges, both increasing) and by band
-                // row (south, north edges, both decreasing); a tile's rectangle is its
-                // column's and its row's (`tile_rect` grows each side alone). A single-pixel
-                // tile (no rectangle) can only be the last of both.
-                let col_x: Vec<(f64, f64)> = (t0..t1)
-                    .map(|t| {
-                        let xa = xs[t * tile - cs];
-                        let xb = xs[((t + 1) * tile).min(g.nx) - 1 - cs];
-                        let r = filt.grown([xa, 0.0, xb, 0.0]);
-                        (r[0], r[2])
-                    })
-                    .collect();
-                let row_y: Vec<(f64, f64)> = (b0..b1)
-                    .map(|b| {
-                        let ya = ys[b * tile - rs];
-                        let yb = ys[((b + 1) * tile).min(g.ny) - 1 - rs];
-                        let r = filt.grown([0.0, yb, 0.0, ya]);
-                        (r[1], r[3])
-                    })
-                    .collect();
-                let pitch = tile as f64 * g.m;
-                let (x_first, y_first) = (col_x[0].0, row_y[0].1);
-                // The cells each tile's gathering visits, per column / row and class.
-                let nk = self.craters.class_count();
-                let col_cells: Vec<(i64, i64)> = col_x
-                    .iter()
-                    .flat_map(|&(w, e)| (0..nk).map(move |k| (w, e, k)))
-                    .map(|(w, e, k)| self.craters.cell_range(k, w, e))
-                    .collect();
-                let row_cells: Vec<(i64, i64)> = row_y
-                    .iter()
-                    .flat_map(|&(s, n)| (0..nk).map(move |k| (s, n, k)))
-                    .map(|(s, n, k)| self.craters.cell_range(k, s, n))
-                    .collect();
-                for (j, (k, ix, iy, c)) in found.iter().enumerate() {
-                    let reach = self.craters.class_reach(*k);
-                    let (lx, hx) = (c.x_m - reach, c.x_m + reach);
-                    let (ly, hy) = (c.y_m - reach, c.y_m + reach);
-                    // Tiles whose rectangle meets the crater's reach square (a crater
-                    // outside it is not visited: its distance is at least `reach`).
-                    // (`partition_point`s, found from a guess on the tiles' pitch.)
-                    let gx = |v: f64| ((v - x_first) / pitch).max(0.0) as usize;
-                    let gy = |v: f64| ((y_first - v) / pitch).max(0.0) as usize;
-                    let ta = partition_from(nt, gx(lx), |t| col_x[t].1 < lx);
-                    let tb = partition_from(nt, gx(hx), |t| col_x[t].0 <= hx);
-                    let ba = partition_from(nb, gy(hy), |b| row_y[b].0 > hy);
-                    let bb = partition_from(nb, gy(ly), |b| row_y[b].1 >= ly);
-                    for bi in ba..bb {
-                        let (iy0, iy1) = row_cells[bi * nk + k];
-                        if *iy < iy0 || *iy > iy1 {
-                            continue;
-                        }
-                        for ti in ta..tb {
-                            let (ix0, ix1) = col_cells[ti * nk + k];
-                            if *ix < ix0 || *ix > ix1 {
-                                continue;
-                            }
-                            let i = bi * nt + ti;
-                            if let Some(r) = rects[i] {
-                                if self.craters.reaches(r, *k, c) {
-                                    bins[i].push(j as u32);
-                                }
-                            }
+            // Tile rectangles by column (west, east edges, both increasing) and by band row
+            // (south, north edges, both decreasing); a tile's rectangle is its column's and
+            // its row's (`tile_rect` grows each side alone).
+            let col_x: Vec<(f64, f64)> = (t0..t1)
+                .map(|t| {
+                    let xa = xs[t * tile - cs];
+                    let xb = xs[((t + 1) * tile).min(g.nx) - 1 - cs];
+                    let r = filt.grown([xa, 0.0, xb, 0.0]);
+                    (r[0], r[2])
+                })
+                .collect();
+            let row_y: Vec<(f64, f64)> = (b0..b1)
+                .map(|b| {
+                    let ya = ys[b * tile - rs];
+                    let yb = ys[((b + 1) * tile).min(g.ny) - 1 - rs];
+                    let r = filt.grown([0.0, yb, 0.0, ya]);
+                    (r[1], r[3])
+                })
+                .collect();
+            let win = Window {
+                cols: cols.clone(),
+                rows: rows.clone(),
+                tile,
+                t0,
+                b0,
+                nx: g.nx,
+                ny: g.ny,
+                xs: &xs[..],
+                cs,
+                ys: &ys[..],
+                rs,
+                rects: &rects[..],
+                col_x: &col_x,
+                row_y: &row_y,
+                pitch: tile as f64 * g.m,
+            };
+            self.splat_window(&win, filt, base, acc_h, acc_a);
+            for b in b0..b1 {
+                for t in t0..t1 {
+                    let rect = rects[(b - b0) * nt + (t - t0)];
+                    for r in (b * tile).max(rows.start)..((b + 1) * tile).min(rows.end) {
+                        for c in (t * tile).max(cols.start)..((t + 1) * tile).min(cols.end) {
+                            let q = (r - rows.start) * w + (c - cols.start);
+                            let (h, a) = match rect {
+                                Some(_) => (acc_h[q], acc_a[q].clamp(0.0, 1.0)),
+                                None => self.eval(xs[c - cs], ys[r - rs], true, true, filt),
+                            };
+                            let k = (r - rows.start) * stride + (c - cols.start);
+                            hs[k] = h as f32;
+                            als[k] = a as f32;
                         }
                     }
                 }
             }
+            return;
         }
         for b in b0..b1 {
             let yt = &ys[b * tile - rs..((b + 1) * tile).min(g.ny) - rs];
@@ -732,12 +695,7 @@ impl World {
                 let c_lo = (t * tile).max(cols.start);
                 let c_hi = ((t + 1) * tile).min(cols.end);
                 let rect = tile_rect(t, b);
-                let bin: &[u32] = if binned {
-                    &bins[(b - b0) * nt + (t - t0)]
-                } else {
-                    &[]
-                };
-                if let (Some(rect), false) = (rect, binned) {
+                if let Some(rect) = rect {
                     items.clear();
                     if rocks_per_pixel {
                         self.craters
@@ -761,16 +719,6 @@ impl World {
                         let (h, a) = match rect {
                             None => self.eval(x, y, true, true, filt),
                             // Features whose `add` would do nothing here are skipped.
-                            Some(_) if binned => self.sum_pixel_coarse(
-                                x,
-                                y,
-                                (base.h[kb], base.a[kb]),
-                                bin.iter().filter_map(|&j| {
-                                    let j = j as usize;
-                                    within(found_pre[j], x, y).then(|| &found[j].3)
-                                }),
-                                filt,
-                            ),
                             Some(_) if rocks_per_pixel => self.sum_pixel_coarse(
                                 x,
                                 y,
@@ -801,6 +749,184 @@ impl World {
                 }
             }
         }
+    }
+
+    /// Sums of a coarse grid's window (pixels of tiles with a gathering rectangle; the rest
+    /// is the caller's) into `acc_h`, `acc_a` (row-major, window-wide): the same additions in
+    /// the same order per pixel as [`World::sum_pixel_coarse`] over each tile's own gathering
+    /// — base sums, the pixel's background boulders, then every crater its tile's gathering
+    /// visits, in gathering order, each fresh crater's boulders right after it — but with
+    /// the craters gathered once for the whole window and summed into the pixels they reach
+    /// as they are found.
+    fn splat_window(
+        &self,
+        win: &Window<'_>,
+        filt: &Filter,
+        base: Base<'_>,
+        acc_h: &mut Vec<f64>,
+        acc_a: &mut Vec<f64>,
+    ) {
+        let w = win.cols.len();
+        let n = w * win.rows.len();
+        acc_h.clear();
+        acc_a.clear();
+        acc_h.resize(n, 0.0);
+        acc_a.resize(n, 0.0);
+        let (nt, nb) = (win.col_x.len(), win.row_y.len());
+        let (k0, grow) = (filt.first_rock_class, filt.grow);
+        let rocks = &self.rocks;
+        let visits_rocks = k0 < rocks.class_count();
+        let mut union: Option<[f64; 4]> = None;
+        // Base sums and the pixels' own background boulders.
+        for bi in 0..nb {
+            let b = win.b0 + bi;
+            for ti in 0..nt {
+                let t = win.t0 + ti;
+                let Some(r) = win.rects[bi * nt + ti] else {
+                    continue;
+                };
+                union = Some(match union {
+                    None => r,
+                    Some(u) => [
+                        u[0].min(r[0]),
+                        u[1].min(r[1]),
+                        u[2].max(r[2]),
+                        u[3].max(r[3]),
+                    ],
+                });
+                for r in (b * win.tile).max(win.rows.start)..((b + 1) * win.tile).min(win.rows.end)
+                {
+                    let y = win.ys[r - win.rs];
+                    for c in
+                        (t * win.tile).max(win.cols.start)..((t + 1) * win.tile).min(win.cols.end)
+                    {
+                        let x = win.xs[c - win.cs];
+                        let q = (r - win.rows.start) * w + (c - win.cols.start);
+                        let kb = (r - base.r0) * base.stride + (c - base.c0);
+                        let mut acc = self.acc_from(base.h[kb], base.a[kb], filt);
+                        if visits_rocks {
+                            let point = filt.grown([x, y, x, y]);
+                            rocks.visit_rect_from(point, k0, grow, |rk| {
+                                acc.add(Feature::Rock(rk), x, y);
+                            });
+                        }
+                        acc_h[q] = acc.h;
+                        acc_a[q] = acc.a;
+                    }
+                }
+            }
+        }
+        let Some(u) = union else {
+            return;
+        };
+        // The cells each tile's gathering visits, per tile column / band and class.
+        let nk = self.craters.class_count();
+        let col_cells: Vec<(i64, i64)> = win
+            .col_x
+            .iter()
+            .flat_map(|&(w, e)| (0..nk).map(move |k| (w, e, k)))
+            .map(|(w, e, k)| self.craters.cell_range(k, w, e))
+            .collect();
+        let row_cells: Vec<(i64, i64)> = win
+            .row_y
+            .iter()
+            .flat_map(|&(s, n)| (0..nk).map(move |k| (s, n, k)))
+            .map(|(s, n, k)| self.craters.cell_range(k, s, n))
+            .collect();
+        let (x_first, y_first) = (win.col_x[0].0, win.row_y[0].1);
+        // A crater adds nothing to a pixel farther than its reach (`add`'s first test),
+        // and a crater that is not fresh nothing beyond its ejecta blanket (it has no
+        // albedo terms or boulders): craters out of those distances of every pixel of the
+        // window are skipped before they are drawn in full (the class's largest blanket
+        // bounds the crater's, with a margin for rounding).
+        let xw = &win.xs[win.cols.start - win.cs..win.cols.end - win.cs];
+        let yw = &win.ys[win.rows.start - win.rs..win.rows.end - win.rs];
+        // Squared distance to the nearest pixel centre along one axis (evenly spaced
+        // centres: the nearest is within one of the rounded index), as `add` computes
+        // `dx * dx`.
+        let step = |at: &[f64]| {
+            if at.len() >= 2 {
+                (at[at.len() - 1] - at[0]) / (at.len() - 1) as f64
+            } else {
+                1.0
+            }
+        };
+        let (sx, sy) = (step(xw), step(yw));
+        let nearest2 = |v: f64, at: &[f64], step: f64| {
+            // Rounded to the nearest index (`as` truncates; negatives clamp to 0 below).
+            let i = (((v - at[0]) / step + 0.5) as i64).clamp(0, at.len() as i64 - 1) as usize;
+            let mut d2 = f64::INFINITY;
+            for &a in &at[i.saturating_sub(1)..(i + 2).min(at.len())] {
+                let d = a - v;
+                d2 = d2.min(d * d);
+            }
+            d2
+        };
+        let slack = filt.hf * core::f64::consts::SQRT_2;
+        let keep = |k: usize, cx: f64, cy: f64, fresh: bool| {
+            let reach = self.craters.class_reach(k) + if fresh { slack } else { 0.0 };
+            let d2 = nearest2(cx, xw, sx) + nearest2(cy, yw, sy);
+            d2 <= reach * reach * (1.0 + 1e-9)
+        };
+        self.craters
+            .visit_rect_cells_if(u, !self.cfg.relief, keep, |k, ix, iy, c| {
+                let reach = self.craters.class_reach(k);
+                let (lx, hx) = (c.x_m - reach, c.x_m + reach);
+                let (ly, hy) = (c.y_m - reach, c.y_m + reach);
+                // Tiles whose rectangle meets the crater's reach square (a crater outside
+                // it is not visited: its distance is at least `reach`): `partition_point`s,
+                // searched from a guess on the tiles' pitch.
+                let gx = |v: f64| ((v - x_first) / win.pitch).max(0.0) as usize;
+                let gy = |v: f64| ((y_first - v) / win.pitch).max(0.0) as usize;
+                let ta = partition_from(nt, gx(lx), |t| win.col_x[t].1 < lx);
+                let tb = partition_from(nt, gx(hx), |t| win.col_x[t].0 <= hx);
+                let ba = partition_from(nb, gy(hy), |b| win.row_y[b].0 > hy);
+                let bb = partition_from(nb, gy(ly), |b| win.row_y[b].1 >= ly);
+                let pre = filt.reach(Feature::Crater(c));
+                let fresh_rocks = rocks.crater_has_rocks(c);
+                for bi in ba..bb {
+                    let (iy0, iy1) = row_cells[bi * nk + k];
+                    if iy < iy0 || iy > iy1 {
+                        continue;
+                    }
+                    let b = win.b0 + bi;
+                    for ti in ta..tb {
+                        let (ix0, ix1) = col_cells[ti * nk + k];
+                        if ix < ix0 || ix > ix1 {
+                            continue;
+                        }
+                        let Some(rect) = win.rects[bi * nt + ti] else {
+                            continue;
+                        };
+                        if !self.craters.reaches(rect, k, c) {
+                            continue;
+                        }
+                        let t = win.t0 + ti;
+                        let r_hi = ((b + 1) * win.tile).min(win.rows.end).min(win.ny);
+                        for r in (b * win.tile).max(win.rows.start)..r_hi {
+                            let y = win.ys[r - win.rs];
+                            let c_hi = ((t + 1) * win.tile).min(win.cols.end).min(win.nx);
+                            for col in (t * win.tile).max(win.cols.start)..c_hi {
+                                let x = win.xs[col - win.cs];
+                                // Where `add` would change nothing, it is skipped.
+                                if !within(pre, x, y) {
+                                    continue;
+                                }
+                                let q = (r - win.rows.start) * w + (col - win.cols.start);
+                                let mut acc = self.acc_from(acc_h[q], acc_a[q], filt);
+                                if acc.add(Feature::Crater(c), x, y) && fresh_rocks {
+                                    let point = filt.grown([x, y, x, y]);
+                                    rocks.visit_crater_rect_from(c, point, k0, grow, |rk| {
+                                        acc.add(Feature::Rock(rk), x, y);
+                                    });
+                                }
+                                acc_h[q] = acc.h;
+                                acc_a[q] = acc.a;
+                            }
+                        }
+                    }
+                }
+            });
     }
 
     /// Height and albedo of one pixel of a coarse grid's tile: its base sums, its own
@@ -888,10 +1014,32 @@ struct Scratch {
     tmp: Vec<f64>,
     items: Vec<Item>,
     pre: Vec<[f64; 3]>,
-    found: Vec<(usize, i64, i64, Crater)>,
-    found_pre: Vec<[f64; 3]>,
-    bins: Vec<Vec<u32>>,
+    acc_h: Vec<f64>,
+    acc_a: Vec<f64>,
     rects: Vec<Option<[f64; 4]>>,
+}
+
+/// A window of a coarse grid being filled by [`World::splat_window`]: its pixels, the grid's
+/// tiles it overlaps (from tile column `t0` and band `b0`) with their pixel centres (`xs`
+/// from column `cs`, `ys` from row `rs`) and gathering rectangles (`rects`, band-major;
+/// `col_x` / `row_y`: their west-east and south-north edges per tile column / band), and the
+/// tiles' pitch in metres.
+struct Window<'a> {
+    cols: std::ops::Range<usize>,
+    rows: std::ops::Range<usize>,
+    tile: usize,
+    t0: usize,
+    b0: usize,
+    nx: usize,
+    ny: usize,
+    xs: &'a [f64],
+    cs: usize,
+    ys: &'a [f64],
+    rs: usize,
+    rects: &'a [Option<[f64; 4]>],
+    col_x: &'a [(f64, f64)],
+    row_y: &'a [(f64, f64)],
+    pitch: f64,
 }
 
 /// Side of the windows a grid is filled by, pixels (rounded down to whole tiles).
