@@ -134,8 +134,27 @@ impl Crater {
     /// the point value [`Crater::albedo_at`].
     // Not inlined: it is called for few (fresh) craters, and inlining it into the per-feature
     // sum bloats that hot function's frame for every boulder and crater.
-    #[inline(never)]
     pub fn albedo_filtered(&self, dx: f64, dy: f64, boost: f64, footprint_m: f64) -> f64 {
+        self.albedo_filtered_with(dx, dy, boost, footprint_m, None)
+    }
+
+    /// The directions of this crater's rays (what [`Crater::albedo_filtered`] draws from
+    /// its id each time), to pass to it when it is evaluated at many points.
+    pub(crate) fn rays(&self) -> Rays {
+        ray_directions(self.id)
+    }
+
+    /// [`Crater::albedo_filtered`] with the crater's [`Crater::rays`] given (or drawn when
+    /// `None`): the same value.
+    #[inline(never)]
+    pub(crate) fn albedo_filtered_with(
+        &self,
+        dx: f64,
+        dy: f64,
+        boost: f64,
+        footprint_m: f64,
+        rays: Option<&Rays>,
+    ) -> f64 {
         let r2 = dx * dx + dy * dy;
         if self.freshness <= 0.0 {
             return 0.0;
@@ -170,7 +189,11 @@ impl Crater {
         let inv_var = 1.0 / var;
         // The brightest ray, `max_k w_k exp(-q_k)`, found on the logarithms: one `exp`.
         let mut best = f64::NEG_INFINITY;
-        for (k, (vx, vy)) in ray_directions(self.id).into_iter().enumerate() {
+        let dirs = match rays {
+            Some(r) => *r,
+            None => ray_directions(self.id),
+        };
+        for (k, (vx, vy)) in dirs.into_iter().enumerate() {
             let c = ux * vx + uy * vy;
             if c > 0.0 {
                 let l = LN_RAY_WEIGHT[k] - (1.0 - c) * inv_var;
@@ -197,8 +220,11 @@ const LN_RAY_WEIGHT: [f64; RAYS] = [
     0.0,
 ];
 
+/// Unit directions of a crater's rays.
+pub(crate) type Rays = [(f64, f64); RAYS];
+
 /// Unit directions of a crater's rays, from its id (exact arithmetic only).
-fn ray_directions(id: u64) -> [(f64, f64); RAYS] {
+fn ray_directions(id: u64) -> Rays {
     let mut rng = Rng::new(id);
     let mut out = [(1.0, 0.0); RAYS];
     for d in out.iter_mut() {

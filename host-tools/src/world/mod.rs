@@ -27,6 +27,7 @@ mod rocks;
 pub mod zones;
 
 pub use config::{WorldConfig, WorldError};
+use craters::Rays;
 pub use craters::{Crater, Degradation};
 pub use grid::HeightGrid;
 pub use rocks::Rock;
@@ -436,7 +437,7 @@ impl World {
         let (k0, grow) = (filt.first_rock_class, filt.grow);
         rocks.visit_rect_from(rect, k0, grow, |r| f(Feature::Rock(r)));
         self.craters.visit_rect(rect, fresh_only, |c| {
-            f(Feature::Crater(c));
+            f(Feature::Crater(c, None));
             if rocks.crater_has_rocks(c) {
                 rocks.visit_crater_rect_from(c, rect, k0, grow, |r| f(Feature::Rock(r)));
             }
@@ -698,15 +699,11 @@ impl World {
                 if let Some(rect) = rect {
                     items.clear();
                     if rocks_per_pixel {
-                        self.craters
-                            .visit_rect(rect, !self.cfg.relief, |c| items.push(Item::Crater(*c)));
-                    } else {
-                        self.features(rect, !self.cfg.relief, filt, |f| {
-                            items.push(match f {
-                                Feature::Crater(c) => Item::Crater(*c),
-                                Feature::Rock(r) => Item::Rock(*r),
-                            })
+                        self.craters.visit_rect(rect, !self.cfg.relief, |c| {
+                            items.push(Item::of(Feature::Crater(c, None)))
                         });
+                    } else {
+                        self.features(rect, !self.cfg.relief, filt, |f| items.push(Item::of(f)));
                     }
                     pre.clear();
                     pre.extend(items.iter().map(|it| filt.reach(it.as_feature())));
@@ -727,7 +724,9 @@ impl World {
                                     .iter()
                                     .zip(pre.iter())
                                     .filter_map(|(it, &p)| match it {
-                                        Item::Crater(c) if within(p, x, y) => Some(c),
+                                        Item::Crater(c, rays) if within(p, x, y) => {
+                                            Some((c, rays.as_ref()))
+                                        }
                                         _ => None,
                                     }),
                                 filt,
@@ -882,7 +881,9 @@ impl World {
                 let tb = partition_from(nt, gx(hx), |t| win.col_x[t].0 <= hx);
                 let ba = partition_from(nb, gy(hy), |b| win.row_y[b].0 > hy);
                 let bb = partition_from(nb, gy(ly), |b| win.row_y[b].1 >= ly);
-                let pre = filt.reach(Feature::Crater(c));
+                let pre = filt.reach(Feature::Crater(c, None));
+                // Drawn once for all the pixels (fresh craters only).
+                let rays: Option<Rays> = (c.freshness > 0.0).then(|| c.rays());
                 let fresh_rocks = rocks.crater_has_rocks(c);
                 for bi in ba..bb {
                     let (iy0, iy1) = row_cells[bi * nk + k];
@@ -901,6 +902,7 @@ impl World {
                         if !self.craters.reaches(rect, k, c) {
                             continue;
                         }
+
                         let t = win.t0 + ti;
                         let r_hi = ((b + 1) * win.tile).min(win.rows.end).min(win.ny);
                         for r in (b * win.tile).max(win.rows.start)..r_hi {
@@ -914,7 +916,7 @@ impl World {
                                 }
                                 let q = (r - win.rows.start) * w + (col - win.cols.start);
                                 let mut acc = self.acc_from(acc_h[q], acc_a[q], filt);
-                                if acc.add(Feature::Crater(c), x, y) && fresh_rocks {
+                                if acc.add(Feature::Crater(c, rays.as_ref()), x, y) && fresh_rocks {
                                     let point = filt.grown([x, y, x, y]);
                                     rocks.visit_crater_rect_from(c, point, k0, grow, |rk| {
                                         acc.add(Feature::Rock(rk), x, y);
@@ -938,7 +940,7 @@ impl World {
         x: f64,
         y: f64,
         (base_h, base_a): (f64, f64),
-        craters: impl Iterator<Item = &'c Crater>,
+        craters: impl Iterator<Item = (&'c Crater, Option<&'c Rays>)>,
         filt: &Filter,
     ) -> (f64, f64) {
         let mut acc = self.acc_from(base_h, base_a, filt);
@@ -948,8 +950,8 @@ impl World {
         rocks.visit_rect_from(point, k0, grow, |rk| {
             acc.add(Feature::Rock(rk), x, y);
         });
-        for cr in craters {
-            if acc.add(Feature::Crater(cr), x, y) && rocks.crater_has_rocks(cr) {
+        for (cr, rays) in craters {
+            if acc.add(Feature::Crater(cr, rays), x, y) && rocks.crater_has_rocks(cr) {
                 rocks.visit_crater_rect_from(cr, point, k0, grow, |rk| {
                     acc.add(Feature::Rock(rk), x, y);
                 });
