@@ -211,6 +211,96 @@ impl Crater {
     }
 }
 
+impl Crater {
+    /// For pixel centres `xs` on the row `y`: `h[i] += height_at(r2)` where the pixel lies
+    /// inside the ejecta blanket (`r2 < (extent * radius)^2`), exactly as a footprint-filtered
+    /// sum adds the height of a crater that is not fresh (its only term), four pixels at a
+    /// time where the CPU has AVX2 (the same operations per pixel).
+    pub(crate) fn add_heights(&self, xs: &[f64], y: f64, h: &mut [f64]) {
+        let n = xs.len().min(h.len());
+        let mut i = 0;
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            while i + 4 <= n {
+                // Safety: AVX2 is present (checked above); i + 4 <= n.
+                unsafe { simd::add_heights4(self, &xs[i..i + 4], y, &mut h[i..i + 4]) };
+                i += 4;
+            }
+        }
+        let em = self.ejecta_extent_radii * self.radius_m();
+        for k in i..n {
+            let (dx, dy) = (xs[k] - self.x_m, y - self.y_m);
+            let r2 = dx * dx + dy * dy;
+            if r2 < em * em {
+                h[k] += self.height_at(r2);
+            }
+        }
+    }
+}
+
+/// [`Crater::add_heights`] four pixels at a time with AVX2: [`Crater::height_at`]'s operations
+/// lane by lane, selects for its branches.
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    use super::Crater;
+    use core::arch::x86_64::*;
+
+    #[target_feature(enable = "avx2")]
+    pub(super) fn add_heights4(c: &Crater, xs: &[f64], y: f64, h: &mut [f64]) {
+        assert!(xs.len() >= 4 && h.len() >= 4);
+        // Safety: 4 elements each (asserted).
+        let (x, h0) = unsafe { (_mm256_loadu_pd(xs.as_ptr()), _mm256_loadu_pd(h.as_ptr())) };
+        let set = _mm256_set1_pd;
+        let dx = _mm256_sub_pd(x, set(c.x_m));
+        let dy = set(y - c.y_m);
+        let r2 = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
+        let em = c.ejecta_extent_radii * c.radius_m();
+        let inside = _mm256_cmp_pd::<_CMP_LT_OQ>(r2, set(em * em));
+        if _mm256_movemask_pd(inside) == 0 {
+            return;
+        }
+        // height_at(r2)
+        let r = c.radius_m();
+        let rho2 = _mm256_div_pd(r2, set(r * r));
+        let e = c.ejecta_extent_radii;
+        let beyond = _mm256_cmp_pd::<_CMP_GE_OQ>(rho2, set(e * e));
+        let bowl = _mm256_add_pd(
+            set(-c.depth_m),
+            _mm256_mul_pd(set(c.depth_m + c.rim_m), rho2),
+        );
+        let rc2 = _mm256_blendv_pd(
+            set(0.25),
+            rho2,
+            _mm256_cmp_pd::<_CMP_GT_OQ>(rho2, set(0.25)),
+        );
+        let inv3 = _mm256_div_pd(set(1.0), _mm256_mul_pd(rc2, _mm256_sqrt_pd(rc2)));
+        let e3 = 1.0 / (e * e * e);
+        let ejecta = _mm256_div_pd(
+            _mm256_mul_pd(set(c.rim_m), _mm256_sub_pd(inv3, set(e3))),
+            set(1.0 - e3),
+        );
+        // smooth_min(bowl, ejecta, smoothing)
+        let (a, b, k) = (bowl, ejecta, c.smoothing_m);
+        let m = _mm256_blendv_pd(b, a, _mm256_cmp_pd::<_CMP_LT_OQ>(a, b));
+        let sm = if k <= 0.0 {
+            m
+        } else {
+            let d = _mm256_andnot_pd(set(-0.0), _mm256_sub_pd(a, b));
+            let far = _mm256_cmp_pd::<_CMP_GE_OQ>(d, set(k));
+            let hh = _mm256_div_pd(_mm256_sub_pd(set(k), d), set(k));
+            let soft = _mm256_sub_pd(
+                m,
+                _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(hh, hh), set(k)), set(0.25)),
+            );
+            _mm256_blendv_pd(soft, m, far)
+        };
+        let val = _mm256_blendv_pd(sm, set(0.0), beyond);
+        let out = _mm256_blendv_pd(h0, _mm256_add_pd(h0, val), inside);
+        // Safety: 4 elements (asserted).
+        unsafe { _mm256_storeu_pd(h.as_mut_ptr(), out) };
+    }
+}
+
 /// `ln(0.6 + 0.1 k)`: the logarithms of the rays' weights in [`Crater::albedo_at`].
 const LN_RAY_WEIGHT: [f64; RAYS] = [
     -0.510_825_623_765_990_7,
@@ -651,5 +741,53 @@ impl CraterField {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Crater, Degradation};
+
+    #[test]
+    fn four_at_a_time_heights_are_the_point_heights() {
+        for (d, smoothing, depth, rim) in [
+            (3.0, 0.05, 0.6, 0.12),
+            (40.0, 0.0, 2.0, 0.4),
+            (1.3, 2.0, 0.1, 0.01),
+        ] {
+            let c = Crater {
+                x_m: 10.3,
+                y_m: -4.1,
+                diameter_m: d,
+                depth_m: depth,
+                rim_m: rim,
+                smoothing_m: smoothing,
+                degradation: 0.5,
+                state: Degradation::Mature,
+                freshness: 0.0,
+                ejecta_extent_radii: 2.5,
+                id: 7,
+            };
+            for row in 0..40 {
+                let y = -4.1 + (row as f64 - 20.0) * 0.07 * d;
+                let xs: Vec<f64> = (0..23)
+                    .map(|i| 10.3 + (i as f64 - 11.3) * 0.11 * d)
+                    .collect();
+                let mut h: Vec<f64> = (0..23).map(|i| i as f64 * 0.25 - 2.0).collect();
+                let mut want = h.clone();
+                c.add_heights(&xs, y, &mut h);
+                let e = c.ejecta_extent_radii * c.radius_m();
+                for (w, &x) in want.iter_mut().zip(&xs) {
+                    let (dx, dy) = (x - c.x_m, y - c.y_m);
+                    let r2 = dx * dx + dy * dy;
+                    if r2 < e * e {
+                        *w += c.height_at(r2);
+                    }
+                }
+                for (a, b) in h.iter().zip(&want) {
+                    assert_eq!(a.to_bits(), b.to_bits(), "d {d} row {row}");
+                }
+            }
+        }
     }
 }

@@ -708,6 +708,57 @@ impl World {
                     pre.clear();
                     pre.extend(items.iter().map(|it| filt.reach(it.as_feature())));
                 }
+                if let (Some(_), false) = (rect, rocks_per_pixel) {
+                    // Fine tiles: feature by feature over the tile's pixels (each pixel
+                    // still sums its features in their order); the height of a crater that
+                    // is not fresh (its only term in a filtered sum) four pixels at a time.
+                    let wt = c_hi - c_lo;
+                    acc_h.clear();
+                    acc_a.clear();
+                    for r in r_lo..r_hi {
+                        let kb = (r - base.r0) * base.stride + (c_lo - base.c0);
+                        acc_h.extend_from_slice(&base.h[kb..kb + wt]);
+                        acc_a.extend_from_slice(&base.a[kb..kb + wt]);
+                    }
+                    let xv = &xt[c_lo - t * tile..c_hi - t * tile];
+                    let heights_only = self.cfg.relief && filt.fp > 0.0;
+                    for (it, &p) in items.iter().zip(pre.iter()) {
+                        let plain = match it {
+                            Item::Crater(c, _)
+                                if heights_only && (c.freshness <= 0.0 || c.freshness.is_nan()) =>
+                            {
+                                Some(c)
+                            }
+                            _ => None,
+                        };
+                        for r in r_lo..r_hi {
+                            let y = yt[r - b * tile];
+                            let q0 = (r - r_lo) * wt;
+                            if let Some(c) = plain {
+                                c.add_heights(xv, y, &mut acc_h[q0..q0 + wt]);
+                                continue;
+                            }
+                            for (j, &x) in xv.iter().enumerate() {
+                                // Features whose `add` would do nothing here are skipped.
+                                if within(p, x, y) {
+                                    let mut acc = self.acc_from(acc_h[q0 + j], acc_a[q0 + j], filt);
+                                    acc.add(it.as_feature(), x, y);
+                                    acc_h[q0 + j] = acc.h;
+                                    acc_a[q0 + j] = acc.a;
+                                }
+                            }
+                        }
+                    }
+                    for r in r_lo..r_hi {
+                        for c in c_lo..c_hi {
+                            let q = (r - r_lo) * wt + (c - c_lo);
+                            let k = (r - rows.start) * stride + (c - cols.start);
+                            hs[k] = acc_h[q] as f32;
+                            als[k] = acc_a[q].clamp(0.0, 1.0) as f32;
+                        }
+                    }
+                    continue;
+                }
                 for r in r_lo..r_hi {
                     let y = yt[r - b * tile];
                     for c in c_lo..c_hi {
@@ -715,8 +766,9 @@ impl World {
                         let kb = (r - base.r0) * base.stride + (c - base.c0);
                         let (h, a) = match rect {
                             None => self.eval(x, y, true, true, filt),
-                            // Features whose `add` would do nothing here are skipped.
-                            Some(_) if rocks_per_pixel => self.sum_pixel_coarse(
+                            // (Coarse tiles only: fine ones are summed above.) Features
+                            // whose `add` would do nothing here are skipped.
+                            Some(_) => self.sum_pixel_coarse(
                                 x,
                                 y,
                                 (base.h[kb], base.a[kb]),
@@ -731,15 +783,6 @@ impl World {
                                     }),
                                 filt,
                             ),
-                            Some(_) => {
-                                let mut acc = self.acc_from(base.h[kb], base.a[kb], filt);
-                                for (it, &p) in items.iter().zip(pre.iter()) {
-                                    if within(p, x, y) {
-                                        acc.add(it.as_feature(), x, y);
-                                    }
-                                }
-                                acc.finish()
-                            }
                         };
                         let k = (r - rows.start) * stride + (c - cols.start);
                         hs[k] = h as f32;
