@@ -168,16 +168,50 @@ impl ShadowField {
                         }
                     }
                     let i_min = first_read(bj);
-                    for i in (i_min..na).rev() {
-                        let a = a0 + i as f64 * m;
-                        let (x, y) = at(a);
-                        let f = first(x, y);
-                        if let Some((k, fx, fy)) = terrain.locate_from(x, y, f) {
-                            let h = terrain.levels[k].interpolate(fx, fy);
-                            let g = h - a * tan_e;
-                            row[i] = if g >= best - 1e-3 { 1.0 } else { 0.0 };
-                            best = best.max(g);
+                    // Nodes four at a time (from the sun side): their heights at once when
+                    // all four lie in one level whose lattice covers its square, then the
+                    // running maximum node by node.
+                    let mut i_end = na;
+                    while i_end > i_min {
+                        let n4 = (i_end - i_min).min(4);
+                        let mut pts = [(0.0, 0.0, 0.0); 4];
+                        let mut lvl = [usize::MAX; 4];
+                        for q in 0..n4 {
+                            let a = a0 + (i_end - 1 - q) as f64 * m;
+                            let (x, y) = at(a);
+                            pts[q] = (a, x, y);
+                            lvl[q] = first(x, y);
                         }
+                        let k = lvl[0];
+                        let same = n4 == 4
+                            && nested
+                            && lvl.iter().all(|&l| l == k)
+                            && covers.get(k) == Some(&true);
+                        let hs = if same {
+                            terrain.levels[k]
+                                .height4(pts.map(|p| p.1), pts.map(|p| p.2))
+                                .map(|h| h.map(Some))
+                        } else {
+                            None
+                        };
+                        let hs = hs.unwrap_or_else(|| {
+                            let mut h = [None; 4];
+                            for q in 0..n4 {
+                                let (_, x, y) = pts[q];
+                                h[q] = terrain
+                                    .locate_from(x, y, lvl[q])
+                                    .map(|(k, fx, fy)| terrain.levels[k].interpolate(fx, fy));
+                            }
+                            h
+                        });
+                        for q in 0..n4 {
+                            if let Some(h) = hs[q] {
+                                let g = h - pts[q].0 * tan_e;
+                                row[i_end - 1 - q] = if g >= best - 1e-3 { 1.0 } else { 0.0 };
+                                best = best.max(g);
+                            }
+                        }
+                        i_end -= n4;
                     }
                 });
                 Lattice {

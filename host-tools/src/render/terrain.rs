@@ -52,6 +52,31 @@ impl Level {
         Some((fx, fy))
     }
 
+    /// [`Level::height`] at four points, bit for bit, when all four lie on the node lattice
+    /// (`None` otherwise, or without AVX2): four lanes of the same operations, the nodes
+    /// gathered.
+    #[inline]
+    pub(crate) fn height4(&self, x: [f64; 4], y: [f64; 4]) -> Option<[f64; 4]> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let g = &self.grid;
+            // Node indices must fit 32-bit lanes.
+            if std::arch::is_x86_feature_detected!("avx2")
+                && g.nx >= 2
+                && g.ny >= 2
+                && g.nx
+                    .checked_mul(g.ny)
+                    .is_some_and(|n| n < i32::MAX as usize)
+                && g.height_m.len() == g.nx * g.ny
+            {
+                // Safety: AVX2 is present; the grid's size was checked.
+                return unsafe { simd::height4(g, x, y) };
+            }
+        }
+        let _ = (x, y);
+        None
+    }
+
     /// The bilinear height at node coordinates from [`Level::locate`].
     #[inline]
     pub(crate) fn interpolate(&self, fx: f64, fy: f64) -> f64 {
@@ -106,6 +131,79 @@ impl Level {
     #[inline]
     fn contains(&self, x: f64, y: f64) -> bool {
         x >= self.bounds[0] && y >= self.bounds[1] && x <= self.bounds[2] && y <= self.bounds[3]
+    }
+}
+
+/// [`Level::height4`] with AVX2.
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    use crate::world::HeightGrid;
+    use core::arch::x86_64::*;
+
+    /// Requires `nx, ny >= 2`, `nx * ny < 2^31`, `height_m.len() == nx * ny`.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn height4(g: &HeightGrid, x: [f64; 4], y: [f64; 4]) -> Option<[f64; 4]> {
+        let set = _mm256_set1_pd;
+        // Safety: 4-element arrays.
+        let (xv, yv) = unsafe { (_mm256_loadu_pd(x.as_ptr()), _mm256_loadu_pd(y.as_ptr())) };
+        let m = set(g.m_per_px);
+        let fx = _mm256_sub_pd(
+            _mm256_div_pd(_mm256_sub_pd(xv, set(g.origin_x_m)), m),
+            set(0.5),
+        );
+        let fy = _mm256_sub_pd(
+            _mm256_div_pd(_mm256_sub_pd(set(g.origin_y_m), yv), m),
+            set(0.5),
+        );
+        let zero = _mm256_setzero_pd();
+        let ok = _mm256_and_pd(
+            _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GE_OQ>(fx, zero),
+                _mm256_cmp_pd::<_CMP_GE_OQ>(fy, zero),
+            ),
+            _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_LE_OQ>(fx, set((g.nx - 1) as f64)),
+                _mm256_cmp_pd::<_CMP_LE_OQ>(fy, set((g.ny - 1) as f64)),
+            ),
+        );
+        if _mm256_movemask_pd(ok) != 0xf {
+            return None;
+        }
+        // c = trunc(fx) capped at nx - 2 (fx in [0, nx - 1] here), as `interpolate`.
+        let c = _mm_min_epi32(_mm256_cvttpd_epi32(fx), _mm_set1_epi32(g.nx as i32 - 2));
+        let r = _mm_min_epi32(_mm256_cvttpd_epi32(fy), _mm_set1_epi32(g.ny as i32 - 2));
+        let tx = _mm256_sub_pd(fx, _mm256_cvtepi32_pd(c));
+        let ty = _mm256_sub_pd(fy, _mm256_cvtepi32_pd(r));
+        let i = _mm_add_epi32(_mm_mullo_epi32(r, _mm_set1_epi32(g.nx as i32)), c);
+        let nx = _mm_set1_epi32(g.nx as i32);
+        let p = g.height_m.as_ptr();
+        // Safety: 0 <= c <= nx - 2 and 0 <= r <= ny - 2, so i + nx + 1 < nx * ny.
+        let (h00, h01, h10, h11) = unsafe {
+            (
+                _mm256_cvtps_pd(_mm_i32gather_ps::<4>(p, i)),
+                _mm256_cvtps_pd(_mm_i32gather_ps::<4>(
+                    p,
+                    _mm_add_epi32(i, _mm_set1_epi32(1)),
+                )),
+                _mm256_cvtps_pd(_mm_i32gather_ps::<4>(p, _mm_add_epi32(i, nx))),
+                _mm256_cvtps_pd(_mm_i32gather_ps::<4>(
+                    p,
+                    _mm_add_epi32(_mm_add_epi32(i, nx), _mm_set1_epi32(1)),
+                )),
+            )
+        };
+        let one = set(1.0);
+        let ux = _mm256_sub_pd(one, tx);
+        let top = _mm256_add_pd(_mm256_mul_pd(h00, ux), _mm256_mul_pd(h01, tx));
+        let bot = _mm256_add_pd(_mm256_mul_pd(h10, ux), _mm256_mul_pd(h11, tx));
+        let v = _mm256_add_pd(
+            _mm256_mul_pd(top, _mm256_sub_pd(one, ty)),
+            _mm256_mul_pd(bot, ty),
+        );
+        let mut out = [0.0; 4];
+        // Safety: 4-element array.
+        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), v) };
+        Some(out)
     }
 }
 
