@@ -348,6 +348,97 @@ fn the_world_is_bit_identical_across_machines() {
 
 const GOLDEN_DIGEST: u64 = 0xd71a_d8ad_31ed_b2f8;
 
+/// FNV-1a over the bits of many grids: footprint-filtered ones at the renderer's mesh
+/// spacings (0.1 m to 12.8 m, fine and coarse sampling paths), point grids at coarse
+/// spacings, odd sizes and origins, the flat world, and filtered point queries.
+fn sampler_digest() -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut eat = |v: &[f32]| {
+        for x in v {
+            for b in x.to_bits().to_le_bytes() {
+                h = (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+    };
+    let world = World::new(7);
+    let flat = World::flat(7);
+    let mut m = 0.1;
+    for k in 0..8 {
+        // Origins on the renderer's lattice (tile corners) and off it.
+        let (ox, oy) = (64.0 * m * (3 + k) as f64, 64.0 * m * (11 - k) as f64);
+        let g = world.sample_grid_filtered(ox, oy, m, 64, 64, m);
+        eat(&g.height_m);
+        eat(&g.albedo);
+        let g = world.sample_grid_filtered(-ox - 0.37, oy + 1.9, m, 37, 23, m);
+        eat(&g.height_m);
+        eat(&g.albedo);
+        let g = flat.sample_grid_filtered(ox + 3.3, -oy, m, 29, 31, 1.5 * m);
+        eat(&g.height_m);
+        eat(&g.albedo);
+        let g = world.sample_grid(ox - 77.7, oy, m, 33, 17);
+        eat(&g.height_m);
+        eat(&g.albedo);
+        m *= 2.0;
+    }
+    for (x, y, fp) in [
+        (10.0, 20.0, 0.3),
+        (-1234.5, 987.6, 2.0),
+        (4000.1, 4000.2, 9.0),
+    ] {
+        eat(&[world.albedo_filtered(x, y, fp) as f32]);
+    }
+    h
+}
+
+#[test]
+fn grid_windows_are_the_whole_grids_pixels() {
+    // A window samples only its pixels, with the values of the whole grid (the grid's own
+    // tiles, fine and coarse paths, partial tiles at the edges, point and filtered).
+    let world = World::new(3);
+    let flat = World::flat(3);
+    for (w, ox, oy, m, nx, ny, fp) in [
+        (&world, 0.0, 64.0 * 12.8, 12.8, 64, 64, 12.8),
+        (&world, -77.3, 1201.9, 3.2, 45, 37, 3.2),
+        (&world, 512.0, 512.0, 1.6, 64, 64, 1.6),
+        (&world, 100.1, -40.0, 0.8, 29, 33, 0.8),
+        (&world, 3.0, 7.0, 0.1, 40, 21, 0.1),
+        (&world, 900.0, 900.0, 5.0, 23, 19, 0.0),
+        (&flat, 250.0, 250.0, 6.4, 31, 17, 6.4),
+    ] {
+        let g = w.sample_grid_filtered(ox, oy, m, nx, ny, fp);
+        for (cols, rows) in [
+            (0..nx, 0..ny),
+            (0..1, 0..1),
+            (nx - 1..nx, ny - 1..ny),
+            (3..nx.min(19), 5..ny.min(22)),
+            (nx / 2..nx, 0..ny / 3),
+        ] {
+            let (h, a) = w.sample_grid_window(ox, oy, m, nx, ny, fp, cols.clone(), rows.clone());
+            assert_eq!(h.len(), cols.len() * rows.len());
+            for (k, r) in rows.clone().enumerate() {
+                for (j, c) in cols.clone().enumerate() {
+                    let i = r * nx + c;
+                    let q = k * cols.len() + j;
+                    assert_eq!(h[q].to_bits(), g.height_m[i].to_bits(), "{m} m: ({c}, {r})");
+                    assert_eq!(a[q].to_bits(), g.albedo[i].to_bits(), "{m} m: ({c}, {r})");
+                }
+            }
+        }
+        let (h, _) = w.sample_grid_window(ox, oy, m, nx, ny, fp, 0..nx + 1, 0..1);
+        assert!(h.is_empty(), "a window outside the grid is empty");
+    }
+}
+
+#[test]
+fn every_sampling_path_is_bit_identical() {
+    // Pins the values of every grid path the renderer uses (see `sampler_digest`); a change
+    // of the sampler's speed must not move it. It changes only with the terrain model.
+    let digest = sampler_digest();
+    assert_eq!(digest, SAMPLER_DIGEST, "digest now {digest:#018x}");
+}
+
+const SAMPLER_DIGEST: u64 = 0xada0_a785_2f46_edeb;
+
 #[test]
 fn flat_world_has_no_relief_and_the_same_albedo() {
     let (world, flat) = (World::new(5), World::flat(5));

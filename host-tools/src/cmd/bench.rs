@@ -215,6 +215,17 @@ fn bench_world(args: &Args) -> anyhow::Result<()> {
             );
         }
         println!("  stereo / mono time per location: {:.2}x", mono.0 / st.0);
+        let parts = stereo_parts(&world, &opts, sun, args, &rig)?;
+        println!(
+            "  stereo CPU per location by part (a third pass, same locations, own cache): terrain levels {:.0} ms, shadows {:.0} ms, node attributes {:.0} ms, near-field texture {:.0} ms, raster 8 views {:.0} ms, satellite crop {:.0} ms; total {:.0} ms",
+            1e3 * parts[0],
+            1e3 * parts[1],
+            1e3 * parts[2],
+            1e3 * parts[3],
+            1e3 * parts[4],
+            1e3 * parts[5],
+            1e3 * parts.iter().sum::<f64>()
+        );
         return Ok(());
     }
     let cache = render::terrain::TileCache::new(1 << 26);
@@ -366,6 +377,72 @@ fn world_rate(
         t_sat / n,
         (cpu_seconds() - c0) / n,
     ))
+}
+
+/// CPU seconds per location of each part of a stereo location, run part by part as
+/// `render_stereo_views` runs them (terrain levels with the shared cache, shadow sweep, node
+/// attributes, the near-field texture, the 8 views with their quantization, the satellite
+/// crop).
+fn stereo_parts(
+    world: &World,
+    opts: &RenderOptions,
+    sun: Sun,
+    args: &Args,
+    rig: &orbfix_host::render::stereo::StereoRender,
+) -> anyhow::Result<[f64; 6]> {
+    use rayon::prelude::*;
+    let cache = render::terrain::TileCache::new(1 << 26);
+    let params = opts.camera_params();
+    let mut cpu = [0.0f64; 6];
+    for i in 0..args.locations {
+        let x = 300.0 + 97.0 * i as f64;
+        let y = 400.0 + 61.0 * i as f64;
+        let pose = render::ground_pose(world, x, y, 37.0 * i as f64);
+        let c = (!args.no_cache).then_some(&cache);
+        let mut c0 = cpu_seconds();
+        let mut lap = |k: usize| {
+            let c1 = cpu_seconds();
+            cpu[k] += c1 - c0;
+            c0 = c1;
+        };
+        let terrain =
+            render::terrain::Terrain::around_cached(world, x, y, opts, params.focal_px() as f64, c);
+        lap(0);
+        let shadow = render::shadow::ShadowField::build(&terrain, &sun, opts.shadow_reach_m);
+        lap(1);
+        let attrs = render::raster::NodeAttrs::compute(&terrain, &shadow);
+        lap(2);
+        let detail = render::near_field_detail(world, &pose, &terrain, &sun, opts);
+        lap(3);
+        let lefts = render::view_cameras(&pose, opts)?;
+        let cams: Vec<_> = lefts
+            .iter()
+            .copied()
+            .chain(
+                lefts
+                    .iter()
+                    .map(|l| render::stereo::right_camera(l, rig.baseline_m)),
+            )
+            .collect();
+        let out: Vec<_> = cams
+            .par_iter()
+            .enumerate()
+            .map(|(k, cam)| {
+                let (gray, range) =
+                    render::raster::render_view(&terrain, &attrs, detail.as_ref(), cam, &sun, opts);
+                (
+                    opts.finish(cam.width_px, cam.height_px, &gray, k as u64),
+                    range,
+                )
+            })
+            .collect();
+        std::hint::black_box(out);
+        lap(4);
+        let s = render::render_satellite_crop_cached(world, x, y, 200, 0.25, sun, opts, c)?;
+        std::hint::black_box(s);
+        lap(5);
+    }
+    Ok(cpu.map(|v| v / args.locations as f64))
 }
 
 fn bench_reproject(args: &Args) -> anyhow::Result<()> {

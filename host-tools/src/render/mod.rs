@@ -96,6 +96,33 @@ pub trait Surface: Sync {
     fn visit_boulders(&self, rect: [f64; 4], f: &mut dyn FnMut(&Rock)) {
         let _ = (rect, f);
     }
+
+    /// Pixels `cols x rows` (inside the grid) of [`Surface::sample_grid_filtered`] with the
+    /// same arguments, bit for bit: heights and albedo, row-major, `cols.len()` wide. The
+    /// default samples the whole grid and copies the window; [`World`] samples only what
+    /// the window needs.
+    #[allow(clippy::too_many_arguments)]
+    fn sample_grid_window(
+        &self,
+        origin_x_m: f64,
+        origin_y_m: f64,
+        m_per_px: f64,
+        nx: usize,
+        ny: usize,
+        footprint_m: f64,
+        cols: std::ops::Range<usize>,
+        rows: std::ops::Range<usize>,
+    ) -> (Vec<f32>, Vec<f32>) {
+        let g = self.sample_grid_filtered(origin_x_m, origin_y_m, m_per_px, nx, ny, footprint_m);
+        let (mut h, mut a) = (Vec::new(), Vec::new());
+        if cols.end <= g.nx && rows.end <= g.ny {
+            for r in rows {
+                h.extend_from_slice(&g.height_m[r * g.nx + cols.start..r * g.nx + cols.end]);
+                a.extend_from_slice(&g.albedo[r * g.nx + cols.start..r * g.nx + cols.end]);
+            }
+        }
+        (h, a)
+    }
 }
 
 impl Surface for World {
@@ -131,6 +158,30 @@ impl Surface for World {
     }
     fn visit_boulders(&self, rect: [f64; 4], f: &mut dyn FnMut(&Rock)) {
         World::visit_boulders(self, rect, f)
+    }
+
+    fn sample_grid_window(
+        &self,
+        origin_x_m: f64,
+        origin_y_m: f64,
+        m_per_px: f64,
+        nx: usize,
+        ny: usize,
+        footprint_m: f64,
+        cols: std::ops::Range<usize>,
+        rows: std::ops::Range<usize>,
+    ) -> (Vec<f32>, Vec<f32>) {
+        World::sample_grid_window(
+            self,
+            origin_x_m,
+            origin_y_m,
+            m_per_px,
+            nx,
+            ny,
+            footprint_m,
+            cols,
+            rows,
+        )
     }
 }
 

@@ -73,6 +73,16 @@ impl ShadowField {
         let az = sun.azimuth_deg.to_radians();
         let s = (az.sin(), az.cos());
         let p = (az.cos(), -az.sin());
+        let nested = terrain.nested();
+        let covers: Vec<bool> = terrain.levels.iter().map(|l| l.covers_bounds()).collect();
+        // An upper bound of every height the sweep interpolates (bilinear values lie between
+        // their nodes'; the margin covers rounding).
+        let h_max = terrain
+            .levels
+            .iter()
+            .flat_map(|l| l.grid.height_m.iter())
+            .fold(f64::NEG_INFINITY, |a, &h| a.max(h as f64));
+        let h_bound = h_max + 1e-6 * (1.0 + h_max.abs());
         let lattices = terrain
             .levels
             .iter()
@@ -89,31 +99,119 @@ impl ShadowField {
                 let (na, nb) = (n, n);
                 let mut lit = vec![1.0f32; na * nb];
                 let a_max = a0 + (na - 1) as f64 * m;
+                // Lowest `a` of the level's square over the band of `b` a lattice line is read
+                // for (queries lie in the square; `lit` reads lines ib and ib + 1, so line j
+                // serves b in [bj - m, bj + m); the band is taken twice as wide): nodes
+                // farther from the sun are never read, so the sweep stops short of them
+                // (2 nodes of margin).
+                let (hw, hh) = (0.5 * (b[2] - b[0]), 0.5 * (b[3] - b[1]));
+                let lower = |sa: f64, pb: f64, half: f64, bl: f64| {
+                    // a >= (-half sign(sa) - b pb) / sa on the band [bl - 2m, bl + 2m].
+                    if sa == 0.0 {
+                        return f64::NEG_INFINITY;
+                    }
+                    let at = |bv: f64| (-half * sa.signum() - bv * pb) / sa;
+                    at(bl - 2.0 * m).min(at(bl + 2.0 * m))
+                };
+                let first_read = |bl: f64| {
+                    let lo = lower(s.0, p.0, hw, bl).max(lower(s.1, p.1, hh, bl));
+                    let i = ((lo - a0) / m).floor() - 2.0;
+                    if i.is_finite() && i > 0.0 {
+                        (i as usize).min(na)
+                    } else {
+                        0
+                    }
+                };
                 lit.par_chunks_mut(na).enumerate().for_each(|(j, row)| {
                     let bj = b0 + j as f64 * m;
                     let at = |a: f64| (cx + a * s.0 + bj * p.0, cy + a * s.1 + bj * p.1);
+                    let mut hint = 0usize;
+                    let mut first = |x: f64, y: f64| {
+                        if nested {
+                            terrain.first_containing(x, y, &mut hint)
+                        } else {
+                            0
+                        }
+                    };
                     let mut best = f64::NEG_INFINITY;
-                    // Extension towards the sun, far to near, at the terrain's own spacing.
+                    // Extension towards the sun, far to near, at the terrain's own spacing:
+                    // the points first (each step is the spacing of the level there), then
+                    // their heights near to far, until no farther point can raise the
+                    // maximum (h - a tan e is below `h_bound - a tan e`, which falls with a).
+                    let mut ext: Vec<(f64, f64, f64, usize)> = Vec::new();
                     let mut a = a_max + reach_m;
                     while a > a_max {
                         let (x, y) = at(a);
-                        let step = match terrain.height(x, y) {
-                            Some((h, res)) => {
-                                best = best.max(h - a * tan_e);
-                                res
+                        let f = first(x, y);
+                        // The level there: the first containing the point when its lattice
+                        // covers its square (no node coordinates needed yet).
+                        let k = match covers.get(f) {
+                            Some(true) => Some(f),
+                            _ => terrain.locate_from(x, y, f).map(|(k, _, _)| k),
+                        };
+                        let step = match k {
+                            Some(k) => {
+                                ext.push((a, x, y, k));
+                                terrain.levels[k].m()
                             }
                             None => m.max(reach_m / 64.0),
                         };
                         a -= step.max(m);
                     }
-                    for i in (0..na).rev() {
-                        let a = a0 + i as f64 * m;
-                        let (x, y) = at(a);
-                        if let Some((h, _)) = terrain.height(x, y) {
-                            let g = h - a * tan_e;
-                            row[i] = if g >= best - 1e-3 { 1.0 } else { 0.0 };
-                            best = best.max(g);
+                    for &(a, x, y, k) in ext.iter().rev() {
+                        if h_bound - a * tan_e < best {
+                            break;
                         }
+                        if let Some((k, fx, fy)) = terrain.locate_from(x, y, k) {
+                            let h = terrain.levels[k].interpolate(fx, fy);
+                            best = best.max(h - a * tan_e);
+                        }
+                    }
+                    let i_min = first_read(bj);
+                    // Nodes four at a time (from the sun side): their heights at once when
+                    // all four lie in one level whose lattice covers its square, then the
+                    // running maximum node by node.
+                    let mut i_end = na;
+                    while i_end > i_min {
+                        let n4 = (i_end - i_min).min(4);
+                        let mut pts = [(0.0, 0.0, 0.0); 4];
+                        let mut lvl = [usize::MAX; 4];
+                        for q in 0..n4 {
+                            let a = a0 + (i_end - 1 - q) as f64 * m;
+                            let (x, y) = at(a);
+                            pts[q] = (a, x, y);
+                            lvl[q] = first(x, y);
+                        }
+                        let k = lvl[0];
+                        let same = n4 == 4
+                            && nested
+                            && lvl.iter().all(|&l| l == k)
+                            && covers.get(k) == Some(&true);
+                        let hs = if same {
+                            terrain.levels[k]
+                                .height4(pts.map(|p| p.1), pts.map(|p| p.2))
+                                .map(|h| h.map(Some))
+                        } else {
+                            None
+                        };
+                        let hs = hs.unwrap_or_else(|| {
+                            let mut h = [None; 4];
+                            for q in 0..n4 {
+                                let (_, x, y) = pts[q];
+                                h[q] = terrain
+                                    .locate_from(x, y, lvl[q])
+                                    .map(|(k, fx, fy)| terrain.levels[k].interpolate(fx, fy));
+                            }
+                            h
+                        });
+                        for q in 0..n4 {
+                            if let Some(h) = hs[q] {
+                                let g = h - pts[q].0 * tan_e;
+                                row[i_end - 1 - q] = if g >= best - 1e-3 { 1.0 } else { 0.0 };
+                                best = best.max(g);
+                            }
+                        }
+                        i_end -= n4;
                     }
                 });
                 Lattice {

@@ -36,12 +36,51 @@ impl Level {
     /// Bilinear height at `(x, y)`, or `None` outside the node lattice.
     #[inline]
     pub fn height(&self, x: f64, y: f64) -> Option<f64> {
+        self.locate(x, y).map(|(fx, fy)| self.interpolate(fx, fy))
+    }
+
+    /// `(x, y)` in node units (`(fx, fy)` with node `(c, r)` at `(c, r)`), or `None` outside
+    /// the node lattice: the first half of [`Level::height`].
+    #[inline]
+    pub(crate) fn locate(&self, x: f64, y: f64) -> Option<(f64, f64)> {
         let g = &self.grid;
         let fx = (x - g.origin_x_m) / g.m_per_px - 0.5;
         let fy = (g.origin_y_m - y) / g.m_per_px - 0.5;
         if !(fx >= 0.0 && fy >= 0.0 && fx <= (g.nx - 1) as f64 && fy <= (g.ny - 1) as f64) {
             return None;
         }
+        Some((fx, fy))
+    }
+
+    /// [`Level::height`] at four points, bit for bit, when all four lie on the node lattice
+    /// (`None` otherwise, or without AVX2): four lanes of the same operations, the nodes
+    /// gathered.
+    #[inline]
+    pub(crate) fn height4(&self, x: [f64; 4], y: [f64; 4]) -> Option<[f64; 4]> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let g = &self.grid;
+            // Node indices must fit 32-bit lanes.
+            if std::arch::is_x86_feature_detected!("avx2")
+                && g.nx >= 2
+                && g.ny >= 2
+                && g.nx
+                    .checked_mul(g.ny)
+                    .is_some_and(|n| n < i32::MAX as usize)
+                && g.height_m.len() == g.nx * g.ny
+            {
+                // Safety: AVX2 is present; the grid's size was checked.
+                return unsafe { simd::height4(g, x, y) };
+            }
+        }
+        let _ = (x, y);
+        None
+    }
+
+    /// The bilinear height at node coordinates from [`Level::locate`].
+    #[inline]
+    pub(crate) fn interpolate(&self, fx: f64, fy: f64) -> f64 {
+        let g = &self.grid;
         let c = (fx as usize).min(g.nx.saturating_sub(2));
         let r = (fy as usize).min(g.ny.saturating_sub(2));
         let tx = fx - c as f64;
@@ -50,7 +89,7 @@ impl Level {
         let h = &g.height_m;
         let top = h[i] as f64 * (1.0 - tx) + h[i + 1] as f64 * tx;
         let bot = h[i + g.nx] as f64 * (1.0 - tx) + h[i + g.nx + 1] as f64 * tx;
-        Some(top * (1.0 - ty) + bot * ty)
+        top * (1.0 - ty) + bot * ty
     }
 
     /// Unit normal at node `(c, r)` by central differences (one-sided at the edges).
@@ -68,8 +107,103 @@ impl Level {
         [n[0] / l, n[1] / l, n[2] / l]
     }
 
+    /// Whether the node lattice covers the whole square with a quarter node to spare, so
+    /// that [`Level::locate`] finds every point of the square (as levels built here do).
+    pub(crate) fn covers_bounds(&self) -> bool {
+        let g = &self.grid;
+        let b = self.bounds;
+        let (x0, x1) = (
+            (b[0] - g.origin_x_m) / g.m_per_px - 0.5,
+            (b[2] - g.origin_x_m) / g.m_per_px - 0.5,
+        );
+        let (y0, y1) = (
+            (g.origin_y_m - b[3]) / g.m_per_px - 0.5,
+            (g.origin_y_m - b[1]) / g.m_per_px - 0.5,
+        );
+        g.nx >= 2
+            && g.ny >= 2
+            && x0 >= 0.25
+            && y0 >= 0.25
+            && x1 <= g.nx as f64 - 1.25
+            && y1 <= g.ny as f64 - 1.25
+    }
+
+    #[inline]
     fn contains(&self, x: f64, y: f64) -> bool {
         x >= self.bounds[0] && y >= self.bounds[1] && x <= self.bounds[2] && y <= self.bounds[3]
+    }
+}
+
+/// [`Level::height4`] with AVX2.
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    use crate::world::HeightGrid;
+    use core::arch::x86_64::*;
+
+    /// Requires `nx, ny >= 2`, `nx * ny < 2^31`, `height_m.len() == nx * ny`.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn height4(g: &HeightGrid, x: [f64; 4], y: [f64; 4]) -> Option<[f64; 4]> {
+        let set = _mm256_set1_pd;
+        // Safety: 4-element arrays.
+        let (xv, yv) = unsafe { (_mm256_loadu_pd(x.as_ptr()), _mm256_loadu_pd(y.as_ptr())) };
+        let m = set(g.m_per_px);
+        let fx = _mm256_sub_pd(
+            _mm256_div_pd(_mm256_sub_pd(xv, set(g.origin_x_m)), m),
+            set(0.5),
+        );
+        let fy = _mm256_sub_pd(
+            _mm256_div_pd(_mm256_sub_pd(set(g.origin_y_m), yv), m),
+            set(0.5),
+        );
+        let zero = _mm256_setzero_pd();
+        let ok = _mm256_and_pd(
+            _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GE_OQ>(fx, zero),
+                _mm256_cmp_pd::<_CMP_GE_OQ>(fy, zero),
+            ),
+            _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_LE_OQ>(fx, set((g.nx - 1) as f64)),
+                _mm256_cmp_pd::<_CMP_LE_OQ>(fy, set((g.ny - 1) as f64)),
+            ),
+        );
+        if _mm256_movemask_pd(ok) != 0xf {
+            return None;
+        }
+        // c = trunc(fx) capped at nx - 2 (fx in [0, nx - 1] here), as `interpolate`.
+        let c = _mm_min_epi32(_mm256_cvttpd_epi32(fx), _mm_set1_epi32(g.nx as i32 - 2));
+        let r = _mm_min_epi32(_mm256_cvttpd_epi32(fy), _mm_set1_epi32(g.ny as i32 - 2));
+        let tx = _mm256_sub_pd(fx, _mm256_cvtepi32_pd(c));
+        let ty = _mm256_sub_pd(fy, _mm256_cvtepi32_pd(r));
+        let i = _mm_add_epi32(_mm_mullo_epi32(r, _mm_set1_epi32(g.nx as i32)), c);
+        let nx = _mm_set1_epi32(g.nx as i32);
+        let p = g.height_m.as_ptr();
+        // Safety: 0 <= c <= nx - 2 and 0 <= r <= ny - 2, so i + nx + 1 < nx * ny.
+        let (h00, h01, h10, h11) = unsafe {
+            (
+                _mm256_cvtps_pd(_mm_i32gather_ps::<4>(p, i)),
+                _mm256_cvtps_pd(_mm_i32gather_ps::<4>(
+                    p,
+                    _mm_add_epi32(i, _mm_set1_epi32(1)),
+                )),
+                _mm256_cvtps_pd(_mm_i32gather_ps::<4>(p, _mm_add_epi32(i, nx))),
+                _mm256_cvtps_pd(_mm_i32gather_ps::<4>(
+                    p,
+                    _mm_add_epi32(_mm_add_epi32(i, nx), _mm_set1_epi32(1)),
+                )),
+            )
+        };
+        let one = set(1.0);
+        let ux = _mm256_sub_pd(one, tx);
+        let top = _mm256_add_pd(_mm256_mul_pd(h00, ux), _mm256_mul_pd(h01, tx));
+        let bot = _mm256_add_pd(_mm256_mul_pd(h10, ux), _mm256_mul_pd(h11, tx));
+        let v = _mm256_add_pd(
+            _mm256_mul_pd(top, _mm256_sub_pd(one, ty)),
+            _mm256_mul_pd(bot, ty),
+        );
+        let mut out = [0.0; 4];
+        // Safety: 4-element array.
+        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), v) };
+        Some(out)
     }
 }
 
@@ -300,6 +434,53 @@ impl Terrain {
         }
     }
 
+    /// Whether every level's square lies inside the next one's (as [`Terrain::around`] and
+    /// [`Terrain::region`] build them): then the levels containing a point are a suffix.
+    pub(crate) fn nested(&self) -> bool {
+        self.levels.windows(2).all(|w| {
+            let (a, b) = (w[0].bounds, w[1].bounds);
+            b[0] <= a[0] && b[1] <= a[1] && b[2] >= a[2] && b[3] >= a[3]
+        })
+    }
+
+    /// The first level whose square contains `(x, y)` (`levels.len()`: none), for
+    /// [`Terrain::nested`] terrains only, searched from `hint` (and left there): points met
+    /// one after the other along a line mostly stay in one level.
+    #[inline]
+    pub(crate) fn first_containing(&self, x: f64, y: f64, hint: &mut usize) -> usize {
+        let n = self.levels.len();
+        // Containment is monotone in the level index (nested squares); past the last level
+        // counts as containing.
+        let inside = |j: usize| self.levels[j].contains(x, y);
+        let mut j = (*hint).min(n);
+        if j == n || inside(j) {
+            while j > 0 && inside(j - 1) {
+                j -= 1;
+            }
+        } else {
+            while j < n && !inside(j) {
+                j += 1;
+            }
+        }
+        *hint = j;
+        j
+    }
+
+    /// [`Terrain::height`]'s level and node coordinates at `(x, y)`: the first level from
+    /// `first` on whose square contains the point and whose node lattice covers it (`first`:
+    /// 0, or [`Terrain::first_containing`] of a nested terrain).
+    #[inline]
+    pub(crate) fn locate_from(&self, x: f64, y: f64, first: usize) -> Option<(usize, f64, f64)> {
+        for (k, l) in self.levels.iter().enumerate().skip(first) {
+            if l.contains(x, y) {
+                if let Some((fx, fy)) = l.locate(x, y) {
+                    return Some((k, fx, fy));
+                }
+            }
+        }
+        None
+    }
+
     /// Composite height (metres) at `(x, y)` and the node spacing it comes from, or `None`
     /// outside every level.
     #[inline]
@@ -319,16 +500,22 @@ impl Terrain {
 /// are cheap to sample (the world's grid sampler) and rarely shared between locations.
 pub const CACHE_MIN_M: f64 = 0.75;
 
-/// Nodes per tile side.
+/// Nodes per side of the lattice tiles whose frame cached nodes are computed in (node
+/// `(c, r)` of tile `(tx, ty)` at `(tx * 64 * m + (c + 0.5) m, (ty + 1) * 64 * m - (r + 0.5) m)`,
+/// sampled as part of that 64 x 64 grid).
 const TILE_N: usize = 64;
+
+/// Nodes per side of the blocks the cache fills and keeps: a tile is sampled block by block
+/// as its blocks are needed (the same values as sampling the whole tile).
+const BLOCK_N: usize = 16;
 
 type TileKey = (u64, i64, i64);
 type TileData = std::sync::Arc<(Vec<f32>, Vec<f32>)>;
 
-/// Heights and albedo of world-lattice tiles (64 x 64 nodes) of coarse levels, shared by
-/// the renders of many locations of one world (e.g. a dataset run): far terrain is sampled
-/// once instead of once per location. Use one cache per world. Thread-safe; when it holds
-/// more than its node budget it is emptied.
+/// Heights and albedo of world-lattice blocks (16 x 16 nodes of 64 x 64 tiles) of coarse
+/// levels, shared by the renders of many locations of one world (e.g. a dataset run): far
+/// terrain is sampled once instead of once per location. Use one cache per world.
+/// Thread-safe; when it holds more than its node budget it is emptied.
 pub struct TileCache {
     tiles: std::sync::RwLock<std::collections::HashMap<TileKey, TileData>>,
     max_tiles: usize,
@@ -339,29 +526,36 @@ impl TileCache {
     pub fn new(max_nodes: usize) -> Self {
         Self {
             tiles: Default::default(),
-            max_tiles: (max_nodes / (TILE_N * TILE_N)).max(16),
+            max_tiles: (max_nodes / (BLOCK_N * BLOCK_N)).max(256),
         }
     }
 
-    fn tile(&self, world: &dyn Surface, m: f64, tx: i64, ty: i64) -> TileData {
-        let key = (m.to_bits(), tx, ty);
+    /// Block `(bx, by)` (node columns `bx * 16..`, northing indices `by * 16..`; row 0 is the
+    /// northernmost, index `by * 16 + 15`) of the level of spacing `m`.
+    fn tile(&self, world: &dyn Surface, m: f64, bx: i64, by: i64) -> TileData {
+        let key = (m.to_bits(), bx, by);
         if let Ok(map) = self.tiles.read() {
             if let Some(t) = map.get(&key) {
                 return t.clone();
             }
         }
-        // Tile (tx, ty): node columns tx*N.., node rows (northing index) ty*N.. (row 0 of the
-        // tile is the northernmost, index ty*N + N - 1).
-        let n = TILE_N;
-        let g = world.sample_grid_filtered(
-            (tx * n as i64) as f64 * m,
-            ((ty + 1) * n as i64) as f64 * m,
+        // The block's tile (tx, ty): node columns tx*N.., node rows (northing index)
+        // ty*N.. (row 0 of the tile is the northernmost, index ty*N + N - 1).
+        let (n, b) = (TILE_N as i64, BLOCK_N as i64);
+        let (tx, ty) = ((bx * b).div_euclid(n), (by * b).div_euclid(n));
+        let c0 = (bx * b - tx * n) as usize;
+        let r0 = ((ty + 1) * n - (by + 1) * b) as usize;
+        let (h, a) = world.sample_grid_window(
+            (tx * n) as f64 * m,
+            ((ty + 1) * n) as f64 * m,
             m,
-            n,
-            n,
+            TILE_N,
+            TILE_N,
             m,
+            c0..c0 + BLOCK_N,
+            r0..r0 + BLOCK_N,
         );
-        let t = std::sync::Arc::new((g.height_m, g.albedo));
+        let t = std::sync::Arc::new((h, a));
         if let Ok(mut map) = self.tiles.write() {
             if map.len() >= self.max_tiles {
                 map.clear();
@@ -371,7 +565,7 @@ impl TileCache {
         t
     }
 
-    /// The level square of [`sample_square`], assembled from tiles; tiles wholly inside
+    /// The level square of [`sample_square`], assembled from blocks; blocks wholly inside
     /// `hole` (shrunk by 3 nodes) are not fetched (left at 0, never read).
     fn square(
         &self,
@@ -388,7 +582,7 @@ impl TileCache {
         let r1 = ((cy - half) / m).floor() as i64 - 1;
         let nx = (c1 - c0) as usize;
         let ny = (r0 - r1) as usize;
-        let n = TILE_N as i64;
+        let n = BLOCK_N as i64;
         let mut height_m = vec![0f32; nx * ny];
         let mut albedo = vec![0f32; nx * ny];
         // Node (c, r) of the level: column gx = c0 + c, northing index gy = r0 - 1 - r.
@@ -427,7 +621,7 @@ impl TileCache {
                 let tc0 = (gx0 - tx * n) as usize;
                 let w = (gx1 - gx0) as usize;
                 let dst = r * nx + (gx0 - c0) as usize;
-                let src = tr * TILE_N + tc0;
+                let src = tr * BLOCK_N + tc0;
                 height_m[dst..dst + w].copy_from_slice(&t.0[src..src + w]);
                 albedo[dst..dst + w].copy_from_slice(&t.1[src..src + w]);
             }

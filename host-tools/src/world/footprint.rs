@@ -2,27 +2,38 @@
 //! [`Item`]), the low-pass filter of a pixel footprint ([`Filter`]) and the accumulation of
 //! height and albedo at a point ([`Acc`]).
 
+use super::craters::Rays;
 use super::{Crater, Rock, World};
 
-/// A feature reaching a query, borrowed.
+/// A feature reaching a query, borrowed; a crater with its rays' directions when they were
+/// drawn once for many points (`None`: drawn when needed).
 #[derive(Clone, Copy)]
 pub(super) enum Feature<'a> {
-    Crater(&'a Crater),
+    Crater(&'a Crater, Option<&'a Rays>),
     Rock(&'a Rock),
 }
 
-/// A feature reaching a tile, owned.
+/// A feature reaching a tile, owned (fresh craters with their rays drawn).
 #[derive(Clone, Copy)]
 pub(super) enum Item {
-    Crater(Crater),
+    Crater(Crater, Option<Rays>),
     Rock(Rock),
 }
 
 impl Item {
+    /// `f` owned; the rays of a fresh crater drawn once.
+    #[inline]
+    pub(super) fn of(f: Feature<'_>) -> Self {
+        match f {
+            Feature::Crater(c, _) => Item::Crater(*c, (c.freshness > 0.0).then(|| c.rays())),
+            Feature::Rock(r) => Item::Rock(*r),
+        }
+    }
+
     #[inline]
     pub(super) fn as_feature(&self) -> Feature<'_> {
         match self {
-            Item::Crater(c) => Feature::Crater(c),
+            Item::Crater(c, rays) => Feature::Crater(c, rays.as_ref()),
             Item::Rock(r) => Feature::Rock(r),
         }
     }
@@ -123,6 +134,43 @@ impl Filter {
     }
 }
 
+impl Filter {
+    /// Centre of `f` and the squared distance from it within which [`Acc::add`] may change a
+    /// sum: `add` at a point as far or farther returns false and changes nothing (this is
+    /// its first test, computed the same way), so callers may skip it there.
+    #[inline]
+    pub(super) fn reach(&self, f: Feature<'_>) -> [f64; 3] {
+        match f {
+            Feature::Crater(c, _) => {
+                let e = c.ejecta_extent_radii * c.radius_m();
+                let r = if self.fp > 0.0 {
+                    e + self.hf * core::f64::consts::SQRT_2
+                } else {
+                    e
+                };
+                [c.x_m, c.y_m, r * r]
+            }
+            Feature::Rock(r) => {
+                let rr = 0.5 * r.diameter_m;
+                let q = if self.fp > 0.0 {
+                    self.grow * rr + self.hf * core::f64::consts::SQRT_2
+                } else {
+                    rr
+                };
+                [r.x_m, r.y_m, q * q]
+            }
+        }
+    }
+}
+
+/// Whether `(x, y)` lies within a [`Filter::reach`] `[cx, cy, reach2]`: `dx^2 + dy^2` as
+/// [`Acc::add`] computes it.
+#[inline]
+pub(super) fn within([cx, cy, reach2]: [f64; 3], x: f64, y: f64) -> bool {
+    let (dx, dy) = (x - cx, y - cy);
+    dx * dx + dy * dy < reach2
+}
+
 /// Fraction (0..1) of the `fp`-wide square centred at offset `(dx, dy)` from a disc of radius
 /// `rr` that the disc covers: for discs smaller than the square, the exact overlap of the
 /// square with the disc's equal-area square (area-preserving: summed over a grid it is the
@@ -161,7 +209,7 @@ impl Acc<'_> {
             return self.add_filtered(f, x, y);
         }
         match f {
-            Feature::Crater(c) => {
+            Feature::Crater(c, _) => {
                 let (dx, dy) = (x - c.x_m, y - c.y_m);
                 let r2 = dx * dx + dy * dy;
                 let e = c.ejecta_extent_radii * c.radius_m();
@@ -199,7 +247,7 @@ impl Acc<'_> {
     fn add_filtered(&mut self, f: Feature<'_>, x: f64, y: f64) -> bool {
         let filt = self.filt;
         match f {
-            Feature::Crater(c) => {
+            Feature::Crater(c, rays) => {
                 let (dx, dy) = (x - c.x_m, y - c.y_m);
                 let r2 = dx * dx + dy * dy;
                 let e = c.ejecta_extent_radii * c.radius_m();
@@ -211,7 +259,7 @@ impl Acc<'_> {
                     self.h += c.height_at(r2);
                 }
                 if self.want_a && c.freshness > 0.0 {
-                    self.a += c.albedo_filtered(dx, dy, self.boost, filt.fp);
+                    self.a += c.albedo_filtered_with(dx, dy, self.boost, filt.fp, rays);
                     if filt.fresh_rock_mean > 0.0
                         && c.freshness > 0.0
                         && c.diameter_m >= filt.fresh_rock_d_min

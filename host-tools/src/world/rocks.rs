@@ -66,6 +66,8 @@ pub(crate) struct RockField {
     max_radius: f64,
     /// Fresh-crater density factor.
     fresh_factor: f64,
+    /// [`RockField::class_mean_albedo`] per class, computed once.
+    mean_albedo: Vec<f64>,
 }
 
 const ROCK_LAYER: u64 = 0x2000;
@@ -92,13 +94,18 @@ impl RockField {
             })
             .collect();
         let max_radius = classes.last().map_or(0.0, |c| 0.5 * c.d_max);
-        Self {
+        let mut field = Self {
             classes,
             albedo_boost: cfg.rock_albedo_boost,
             fresh_d_min: cfg.fresh_crater_rock_d_min_m,
             max_radius,
             fresh_factor: cfg.fresh_crater_rock_factor,
-        }
+            mean_albedo: Vec::new(),
+        };
+        field.mean_albedo = (0..field.classes.len())
+            .map(|k| field.mean_albedo_of(k))
+            .collect();
+        field
     }
 
     /// Centre (metres) of the next rock of a cell, and the draw for the rest of it.
@@ -179,6 +186,11 @@ impl RockField {
     /// covered fraction (density x mean disc area) times the mean albedo boost. Multiply by
     /// the fresh-crater factor for a fresh crater's own layer inside its rim.
     pub(crate) fn class_mean_albedo(&self, k: usize) -> f64 {
+        self.mean_albedo.get(k).copied().unwrap_or(0.0)
+    }
+
+    /// [`RockField::class_mean_albedo`], computed.
+    fn mean_albedo_of(&self, k: usize) -> f64 {
         self.classes.get(k).map_or(0.0, |c| {
             // Mean of d^2 by the midpoint rule over the inverse CDF (256 steps).
             let n = 256;
