@@ -283,3 +283,42 @@ fn expanded_reduced_depth_follows_flat_ground_row_by_row() {
         }
     }
 }
+
+/// Far depths scaled up by [`orbfix::reproject::DepthExpander`] saturate at the largest
+/// depth instead of wrapping round to a small one (which would put a far pixel next to
+/// the rover): every row of every view, the largest reduced depth in, a depth at least as
+/// large as the row's scale gives (or `u16::MAX`) out.
+#[test]
+fn expanded_far_depth_saturates_not_wraps() {
+    use orbfix::camera::View;
+    use orbfix::reproject::DepthExpander;
+    let p = CameraParams::default();
+    let pose = RoverPose::level(10.0, -4.0, 0.0, 33.0);
+    let (w, h) = (p.width_px as usize, p.height_px as usize);
+    let mut scaled_up = 0;
+    for view in View::ALL {
+        let ex = DepthExpander::new(&p, &pose, view).unwrap();
+        for k in [2usize, 4] {
+            let mut out = vec![0u16; w];
+            for j in 0..h {
+                for far in [40_000u16, u16::MAX] {
+                    ex.expand_row(j, k, &vec![far; w.div_ceil(k)], &mut out);
+                    // A scale is at least 1/4: a far depth never comes out near.
+                    assert!(
+                        out.iter().all(|&d| d >= far / 4),
+                        "{view:?} k {k} row {j}: depth {far} expanded to {}",
+                        out[0]
+                    );
+                    if far == u16::MAX && out[0] == u16::MAX {
+                        scaled_up += 1;
+                    }
+                }
+            }
+        }
+    }
+    // Rows whose scale exceeds 1 were exercised (they saturate).
+    assert!(
+        scaled_up > 100,
+        "only {scaled_up} rows scaled a far depth up"
+    );
+}

@@ -407,7 +407,8 @@ impl DepthExpander {
 
     /// Writes frame row `j` of the depth image reduced by `k` whose reduced row `j / k` is
     /// `src` into `out` (the frame's width; `src` at least `out.len() / k` long, rounded
-    /// up, else the missing pixels get no depth). Depth 0 (no data) stays 0.
+    /// up, else the missing pixels get no depth). Depth 0 (no data) stays 0; a scaled depth
+    /// beyond `u16::MAX` units is `u16::MAX`.
     pub fn expand_row(&self, j: usize, k: usize, src: &[u16], out: &mut [u16]) {
         let k = k.max(1);
         let scale = if k == 1 {
@@ -420,7 +421,10 @@ impl DepthExpander {
             let d = if o == 0 || scale == ROW_SCALE_ONE {
                 o
             } else {
-                let v = (u32::from(o) * scale + (ROW_SCALE_ONE >> 1)) >> ROW_SCALE_BITS;
+                // In u64: a depth of up to 65,535 units times a scale of up to 4 in Q16
+                // exceeds u32; a result beyond u16 saturates (the farthest depth).
+                let v = (u64::from(o) * u64::from(scale) + u64::from(ROW_SCALE_ONE >> 1))
+                    >> ROW_SCALE_BITS;
                 u16::try_from(v).unwrap_or(u16::MAX).max(1)
             };
             c.fill(d);
