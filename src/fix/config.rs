@@ -98,6 +98,13 @@ pub struct SelfCheck {
 /// `docs/fix-results-lut.md`.
 pub const ACCEPT_CONFIDENCE_FLAT: f32 = 0.30;
 
+/// Default [`FixConfig::accept_confidence_stereo`]. On world seed 1 (development, 100 stops
+/// same sun + 100 cross sun, the fix's own stereo depth, `out/calib-stereo-seed1`), the
+/// 40 stereo fixes more than 5 m off (26 cross sun, 14 same sun) had confidences up to
+/// 0.190, and 4 of them reached the common 0.15; 0.25 keeps a margin above that. Held-out
+/// figures: `docs/fix-results-stereo.md`.
+pub const ACCEPT_CONFIDENCE_STEREO: f32 = 0.25;
+
 /// Every setting of the fix.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -122,6 +129,13 @@ pub struct FixConfig {
     /// reach confidences that the depth paths only reach when right. Calibrated on world
     /// seed 1 (`docs/fix-results-lut.md`).
     pub accept_confidence_flat: f32,
+    /// Confidence below which a fix made with the fix's own stereo depth
+    /// ([`super::Depth::Stereo`]) is reported ambiguous (the larger of this and
+    /// [`FixConfig::accept_confidence`] applies). Stricter than with depth images: the
+    /// stereo top-down image has holes and far-field smear, and its wrong fixes reach
+    /// confidences that truth depth only reaches when right. Calibrated on world seed 1
+    /// (`docs/fix-results-stereo.md`).
+    pub accept_confidence_stereo: f32,
     /// Stated error bounds.
     pub bounds: ErrorBounds,
     /// Self-checks.
@@ -161,6 +175,7 @@ impl Default for FixConfig {
             },
             accept_confidence: 0.15,
             accept_confidence_flat: ACCEPT_CONFIDENCE_FLAT,
+            accept_confidence_stereo: ACCEPT_CONFIDENCE_STEREO,
             bounds: ErrorBounds {
                 ncc_m: 0.5,
                 cnn_m: 2.0,
@@ -215,6 +230,11 @@ impl FixConfig {
             && (0.0..=1.0).contains(&self.accept_confidence_flat))
         {
             return bad("accept_confidence_flat");
+        }
+        if !(self.accept_confidence_stereo.is_finite()
+            && (0.0..=1.0).contains(&self.accept_confidence_stereo))
+        {
+            return bad("accept_confidence_stereo");
         }
         let ok_bound = |v: f32| v.is_finite() && v > 0.0;
         if !(ok_bound(self.bounds.ncc_m) && ok_bound(self.bounds.cnn_m)) {

@@ -28,7 +28,8 @@
 //! CNN can embed), self-check failed, on border (the chosen window touches the map's edge:
 //! the truth may lie outside), ambiguous (confidence below
 //! [`FixConfig::accept_confidence`], or on flat ground below the stricter
-//! [`FixConfig::accept_confidence_flat`]), else ok. The error bound is the calibrated bound of
+//! [`FixConfig::accept_confidence_flat`], or with the fix's own stereo below
+//! [`FixConfig::accept_confidence_stereo`]), else ok. The error bound is the calibrated bound of
 //! the path that produced the fix ([`ErrorBounds`]).
 
 pub mod coarse;
@@ -45,7 +46,7 @@ mod top_down;
 
 pub use config::{
     ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck,
-    ACCEPT_CONFIDENCE_FLAT,
+    ACCEPT_CONFIDENCE_FLAT, ACCEPT_CONFIDENCE_STEREO,
 };
 pub use digest::{fnv1a, fnv1a_start, output_digest};
 pub use heading::{run_heading_search, HeadingFix, HeadingSearch, MAX_HEADINGS};
@@ -417,11 +418,13 @@ fn run_once<C: StageClock>(
     Ok(report)
 }
 
-/// The confidence a fix needs to be reported ok: stricter on flat-ground reprojection.
+/// The confidence a fix needs to be reported ok: stricter on flat-ground reprojection and
+/// with the fix's own stereo depth.
 fn accept_threshold(cfg: &FixConfig, depth: &Depth<'_>) -> f32 {
     match depth {
         Depth::Flat => cfg.accept_confidence.max(cfg.accept_confidence_flat),
-        Depth::Images(_) | Depth::Stereo(_) => cfg.accept_confidence,
+        Depth::Stereo(_) => cfg.accept_confidence.max(cfg.accept_confidence_stereo),
+        Depth::Images(_) => cfg.accept_confidence,
     }
 }
 
@@ -582,7 +585,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn flat_ground_fixes_need_the_stricter_confidence() {
+    fn flat_ground_and_stereo_fixes_need_the_stricter_confidence() {
         let cfg = FixConfig::default();
         assert!(cfg.accept_confidence_flat > cfg.accept_confidence);
         assert_eq!(
@@ -593,15 +596,21 @@ mod tests {
             accept_threshold(&cfg, &Depth::Images([None; 4])),
             cfg.accept_confidence
         );
+        assert!(cfg.accept_confidence_stereo > cfg.accept_confidence);
         assert_eq!(
             accept_threshold(&cfg, &Depth::Stereo([None; 4])),
-            cfg.accept_confidence
+            cfg.accept_confidence_stereo
         );
-        // The larger of the two applies on flat ground.
+        // The larger of the two applies on flat ground and with stereo.
         let mut loose = cfg;
         loose.accept_confidence_flat = 0.0;
+        loose.accept_confidence_stereo = 0.0;
         assert_eq!(
             accept_threshold(&loose, &Depth::Flat),
+            cfg.accept_confidence
+        );
+        assert_eq!(
+            accept_threshold(&loose, &Depth::Stereo([None; 4])),
             cfg.accept_confidence
         );
         // A bad value is a named configuration error.
@@ -612,6 +621,14 @@ mod tests {
                 c.validate(),
                 Err(FixError::BadConfig {
                     field: "accept_confidence_flat"
+                })
+            );
+            let mut c = cfg;
+            c.accept_confidence_stereo = bad;
+            assert_eq!(
+                c.validate(),
+                Err(FixError::BadConfig {
+                    field: "accept_confidence_stereo"
                 })
             );
         }
