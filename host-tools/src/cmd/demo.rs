@@ -10,8 +10,8 @@ use orbfix_host::eval::pipeline::{
     make_queries, render_query_full, Condition, DepthSource, PipelineOptions, Reprojection,
 };
 use orbfix_host::eval::{
-    best_matcher, fix_config_by_name, localize_fix, localize_top_down, matcher_by_name, overlay,
-    save_png_atomic, window_cell_scores, write_atomic, MATCHERS,
+    best_matcher, fix_config_checked, fix_config_in, localize_fix, localize_top_down,
+    matcher_by_name, overlay, save_png_atomic, window_cell_scores, write_atomic, MATCHERS,
 };
 use orbfix_host::fix::{build_map_product, FixRunner, MapProductOptions};
 use orbfix_host::world::World;
@@ -122,7 +122,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .matcher
         .clone()
         .unwrap_or_else(|| best_matcher().to_string());
-    let fix_cfg = fix_config_by_name(&name);
+    let fix_cfg = fix_config_checked(&name).context("--matcher")?;
     let spec = match fix_cfg {
         Some(_) => None,
         None => Some(
@@ -139,6 +139,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         reprojection,
         ..PipelineOptions::default()
     };
+    let fix_cfg = fix_cfg.and_then(|_| fix_config_in(&name, &opts));
     let cfg = LocalizeConfig::default();
     let queries = make_queries(a.seed, a.stops, a.condition);
     println!(
@@ -183,10 +184,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let mut fix_top: Option<orbfix_host::eval::TopDown> = None;
         let mut truth_top: Option<orbfix_host::eval::TopDown> = None;
         let loc = match (&spec, fix_cfg) {
-            (None, Some(mut cfg)) => {
-                cfg.grid = opts.grid;
-                cfg.range = opts.range;
-                cfg.stereo.matcher = opts.stereo_params();
+            (None, Some(cfg)) => {
                 let product = build_map_product(
                     &map,
                     &weights,

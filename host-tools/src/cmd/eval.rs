@@ -26,8 +26,12 @@ pub struct Args {
     /// Matcher, or a comma-separated list sharing the renders: fix (the flight core's one
     /// fix, `orbfix::fix::run`: CNN over the map product's 4 m window records, masked NCC
     /// refinement, sub-pixel peak), fix-ncc (NCC refinement always kept), cnn (the bare CNN:
-    /// its sub-cell peak only); baselines on the core's top-down image: ncc, ncc-hp2,
-    /// ncc-dist, l1, l2.
+    /// its sub-cell peak only); a fix name may carry options that change one setting of the
+    /// core's FixConfig, for tuning on the development seed: -pN (coarse peaks refined),
+    /// -mnN (smallest NCC kept), -raN / -rbN (stereo relief above / below the ground, m),
+    /// -srN (stereo ground range, m), -uN (stereo uniqueness, %), -msN (stereo support),
+    /// -mdN (largest depth reprojected, m), e.g. fix-p5 or fix-ra1-u20; baselines on the
+    /// core's top-down image: ncc, ncc-hp2, ncc-dist, l1, l2.
     #[arg(long, default_value = "fix")]
     pub matcher: String,
     /// CNN weight file (.ofw) for the fix matchers and their map products (default: the

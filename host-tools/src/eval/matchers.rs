@@ -27,21 +27,108 @@ pub fn best_matcher() -> &'static str {
     MATCHERS[0]
 }
 
-/// The fix configuration behind a fix matcher name (`fix`, `fix-ncc`, `cnn`), `None` for a
-/// baseline.
+/// The options a fix matcher name may carry after its base, each `-<key><value>`, e.g.
+/// `fix-p5-ra1`: the same fix with one setting of [`FixConfig`] changed, for tuning on the
+/// development seed; the report prints the whole configuration.
+pub const FIX_OPTIONS: &str = "-pN (coarse peaks refined), -mnN (smallest NCC kept, 0..1), \
+-raN / -rbN (stereo: relief searched above / below the ground, metres), -srN (stereo: \
+ground range matched, metres), -uN (stereo: uniqueness, percent), -msN (stereo: support, \
+neighbours of 8), -mdN (largest depth reprojected, metres)";
+
+/// The fix configuration behind a fix matcher name (`fix`, `fix-ncc`, `fix-signed`, `cnn`,
+/// each optionally followed by [`FIX_OPTIONS`]), `None` for a baseline (or a fix name with
+/// bad options: [`fix_config_checked`] says what is wrong).
 pub fn fix_config_by_name(name: &str) -> Option<FixConfig> {
-    let mut cfg = FixConfig::default();
-    cfg.refine.mode = match name {
-        "fix" => RefineMode::Auto,
-        "fix-ncc" => RefineMode::Ncc,
-        "fix-signed" => {
-            cfg.refine.rectify = false;
-            RefineMode::Auto
-        }
-        "cnn" => RefineMode::Cnn,
-        _ => return None,
-    };
+    fix_config_checked(name).ok().flatten()
+}
+
+/// As [`fix_config_by_name`], with the run's pipeline settings (grid, range options, stereo
+/// matcher) in place of the defaults, the name's options applied over them.
+pub fn fix_config_in(name: &str, pipeline: &super::pipeline::PipelineOptions) -> Option<FixConfig> {
+    let (mut cfg, tail) = fix_base(name)?;
+    cfg.grid = pipeline.grid;
+    cfg.range = pipeline.range;
+    cfg.stereo.matcher = pipeline.stereo_params();
+    apply_fix_options(name, tail, &mut cfg).ok()?;
     Some(cfg)
+}
+
+/// As [`fix_config_by_name`], an error when the name is a fix matcher's with bad options.
+pub fn fix_config_checked(name: &str) -> anyhow::Result<Option<FixConfig>> {
+    let Some((mut cfg, tail)) = fix_base(name) else {
+        return Ok(None);
+    };
+    apply_fix_options(name, tail, &mut cfg)?;
+    Ok(Some(cfg))
+}
+
+/// The base configuration of a fix matcher name and the option tail after the base.
+fn fix_base(name: &str) -> Option<(FixConfig, &str)> {
+    let mut cfg = FixConfig::default();
+    // Longer bases first: `fix-ncc` is a base, not `fix` with an option `ncc`.
+    for (base, mode, rectify) in [
+        ("fix-ncc", RefineMode::Ncc, true),
+        ("fix-signed", RefineMode::Auto, false),
+        ("cnn", RefineMode::Cnn, true),
+        ("fix", RefineMode::Auto, true),
+    ] {
+        let Some(tail) = name.strip_prefix(base) else {
+            continue;
+        };
+        if !(tail.is_empty() || tail.starts_with('-')) {
+            continue;
+        }
+        cfg.refine.mode = mode;
+        cfg.refine.rectify = rectify;
+        return Some((cfg, tail));
+    }
+    None
+}
+
+/// Applies a fix matcher name's options ([`FIX_OPTIONS`]) and validates the result.
+fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Result<()> {
+    for part in tail.split('-').filter(|p| !p.is_empty()) {
+        let at = part
+            .find(|c: char| !c.is_ascii_alphabetic())
+            .unwrap_or(part.len());
+        let (key, value) = part.split_at(at);
+        if !["p", "mn", "ra", "rb", "sr", "u", "ms", "md"].contains(&key) {
+            bail!("unknown option '{part}' of matcher '{name}' (fix options: {FIX_OPTIONS})");
+        }
+        let v: f32 = value.parse().ok().filter(|v: &f32| v.is_finite() && *v >= 0.0).with_context(|| {
+            format!("option '{part}' of matcher '{name}': expected {key}<number >= 0> (fix options: {FIX_OPTIONS})")
+        })?;
+        let m = &mut cfg.stereo.matcher;
+        let whole = |v: f32| -> anyhow::Result<u32> {
+            anyhow::ensure!(
+                v.fract() == 0.0 && v <= 1000.0,
+                "option '{part}' of matcher '{name}' takes a whole number"
+            );
+            Ok(v as u32)
+        };
+        match key {
+            "p" => cfg.refine.peaks = whole(v)? as usize,
+            "mn" => cfg.refine.min_ncc = v,
+            "ra" => m.relief_above_m = v,
+            "rb" => m.relief_below_m = v,
+            "sr" => m.max_ground_range_m = v,
+            // Out of u8 range: u8::MAX, refused below by the rig's check.
+            "u" => m.uniqueness_pct = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
+            "ms" => m.min_support = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
+            "md" => cfg.range.max_depth_m = v,
+            _ => bail!("unknown option '{part}' of matcher '{name}' (fix options: {FIX_OPTIONS})"),
+        }
+    }
+    cfg.validate()
+        .map_err(|e| anyhow::anyhow!("matcher '{name}': {e}"))?;
+    // The stereo settings are checked against a camera by the core's rig (at the rovers'
+    // camera; the fix checks them again against its own).
+    orbfix::stereo::StereoRig::new(
+        &orbfix::camera::CameraParams::default(),
+        &cfg.stereo.matcher,
+    )
+    .map_err(|e| anyhow::anyhow!("matcher '{name}': {e}"))?;
+    Ok(())
 }
 
 /// A baseline matcher with its host-side options.
@@ -128,9 +215,84 @@ pub fn parse_matchers(list: &str) -> anyhow::Result<Vec<String>> {
         bail!("no matcher given: choose from {}", MATCHERS.join(", "));
     }
     for n in &names {
-        if fix_config_by_name(n).is_none() {
+        if fix_config_checked(n)?.is_none() {
             matcher_by_name(n)?;
         }
     }
     Ok(names)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fix_names_and_their_options() {
+        let d = FixConfig::default();
+        assert_eq!(fix_config_by_name("fix"), Some(d));
+        assert_eq!(
+            fix_config_by_name("fix-ncc").map(|c| c.refine.mode),
+            Some(RefineMode::Ncc)
+        );
+        assert_eq!(
+            fix_config_by_name("fix-signed").map(|c| c.refine.rectify),
+            Some(false)
+        );
+        assert_eq!(fix_config_by_name("ncc-hp2"), None);
+        let c = fix_config_by_name("fix-p5-ra1.5-u20-ms4-mn0.4-rb1-sr30-md25").unwrap();
+        assert_eq!(c.refine.mode, RefineMode::Auto);
+        assert_eq!(c.refine.peaks, 5);
+        assert_eq!(c.refine.min_ncc, 0.4);
+        assert_eq!(c.stereo.matcher.relief_above_m, 1.5);
+        assert_eq!(c.stereo.matcher.relief_below_m, 1.0);
+        assert_eq!(c.stereo.matcher.max_ground_range_m, 30.0);
+        assert_eq!(c.stereo.matcher.uniqueness_pct, 20);
+        assert_eq!(c.stereo.matcher.min_support, 4);
+        assert_eq!(c.range.max_depth_m, 25.0);
+        // Options on the other bases too.
+        let c = fix_config_by_name("fix-ncc-p4").unwrap();
+        assert_eq!((c.refine.mode, c.refine.peaks), (RefineMode::Ncc, 4));
+        assert_eq!(
+            fix_config_by_name("cnn-p2").map(|c| c.refine.peaks),
+            Some(2)
+        );
+    }
+
+    #[test]
+    fn bad_fix_options_are_errors_that_say_why() {
+        for (name, says) in [
+            ("fix-q3", "unknown option 'q3'"),
+            ("fix-p", "expected p<number"),
+            ("fix-p2.5", "whole number"),
+            ("fix-pnan", "unknown option 'pnan'"),
+            ("fix-p-1", "expected p<number"),
+            ("fix-p0", "peaks"),
+            ("fix-p99", "peaks"),
+            ("fix-u300", "uniqueness"),
+            ("fix-u60", "uniqueness"),
+            ("fix-ms9", "min_support"),
+            ("fix-ra5", "relief_above"),
+        ] {
+            let e = fix_config_checked(name).expect_err(name);
+            let msg = format!("{e:#}");
+            assert!(msg.contains(says), "{name}: {msg}");
+            assert_eq!(fix_config_by_name(name), None, "{name}");
+            assert!(parse_matchers(&format!("fix,{name}")).is_err(), "{name}");
+        }
+        // `fixed` is not `fix` with an option.
+        assert_eq!(fix_config_checked("fixed").unwrap(), None);
+    }
+
+    #[test]
+    fn the_run_settings_come_first_then_the_options() {
+        let mut p = super::super::pipeline::PipelineOptions::default();
+        p.range.max_depth_m = 40.0;
+        p.stereo.relief_above_m = 0.7;
+        let c = fix_config_in("fix-ra1", &p).unwrap();
+        assert_eq!(c.range.max_depth_m, 40.0);
+        assert_eq!(c.stereo.matcher.relief_above_m, 1.0);
+        let c = fix_config_in("fix", &p).unwrap();
+        assert_eq!(c.stereo.matcher.relief_above_m, 0.7);
+        assert!(fix_config_in("l1", &p).is_none());
+    }
 }

@@ -30,7 +30,8 @@ pub use baseline::{
 };
 pub use map_io::{load_map, save_png_atomic, write_atomic, MapMeta};
 pub use matchers::{
-    best_matcher, fix_config_by_name, matcher_by_name, parse_matchers, MatcherSpec, MATCHERS,
+    best_matcher, fix_config_by_name, fix_config_checked, fix_config_in, matcher_by_name,
+    parse_matchers, MatcherSpec, FIX_OPTIONS, MATCHERS,
 };
 
 use orbfix::geo::GeoRef;

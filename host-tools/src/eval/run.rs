@@ -4,8 +4,8 @@
 use super::metrics::{pair_stats, quantile, recall_at, PairStats};
 use super::pipeline::{make_queries, render_query_full, Condition, PipelineOptions, Query};
 use super::{
-    fix_config_by_name, localize_fix, localize_top_down, matcher_by_name, Localization, MapRegion,
-    TopDown,
+    fix_config_by_name, fix_config_in, localize_fix, localize_top_down, matcher_by_name,
+    Localization, MapRegion, TopDown,
 };
 use crate::fix::{build_map_product, FixRunner, MapProductOptions};
 use crate::world::World;
@@ -237,10 +237,7 @@ fn run_query(
     let sun_deg = Some((q.sun_map.elevation_deg as f32, q.sun_map.azimuth_deg as f32));
     let mut products: Vec<(orbfix::map_product::RefinePlane, Vec<u8>)> = Vec::new();
     for name in &cfg.matchers {
-        if let Some(mut fcfg) = fix_config_by_name(name) {
-            fcfg.grid = cfg.pipeline.grid;
-            fcfg.range = cfg.pipeline.range;
-            fcfg.stereo.matcher = cfg.pipeline.stereo_params();
+        if let Some(fcfg) = fix_config_in(name, &cfg.pipeline) {
             let opts = MapProductOptions::for_fix(&fcfg, sun_deg)?;
             let at = match products.iter().position(|(p, _)| *p == opts.plane) {
                 Some(i) => i,
@@ -488,12 +485,7 @@ pub fn run_eval_on(
             mean_windows_s: mean(rs.iter().map(|r| r.windows_s).collect()),
             ops,
             settings: settings.clone(),
-            fix: fix_config_by_name(name).map(|mut c| {
-                c.grid = cfg.pipeline.grid;
-                c.range = cfg.pipeline.range;
-                c.stereo.matcher = cfg.pipeline.stereo_params();
-                fix_stats(rs, &c)
-            }),
+            fix: fix_config_in(name, &cfg.pipeline).map(|c| fix_stats(rs, &c)),
             per_query: rs.clone(),
         });
     }
