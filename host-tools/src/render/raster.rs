@@ -181,15 +181,22 @@ pub fn render_view(
                 // Cells behind the near plane or wholly outside the image: skip.
                 let (mut u0, mut u1, mut v0, mut v1) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
                 let mut behind = false;
+                let mut nan = false;
                 for &q in &idx {
                     let p = verts[q];
                     behind |= p.z < NEAR_M;
+                    nan |= p.u.is_nan() | p.v.is_nan();
                     u0 = u0.min(p.u);
                     u1 = u1.max(p.u);
                     v0 = v0.min(p.v);
                     v1 = v1.max(p.v);
                 }
                 if behind || u1 < 0.0 || v1 < 0.0 || u0 > w as f32 || v0 > h as f32 {
+                    continue;
+                }
+                // No pixel centre inside the cell's box: none inside either triangle's box
+                // (which lies inside the cell's), so both would draw nothing.
+                if !nan && (ceil(u0 - 0.5) > floor(u1 - 0.5) || ceil(v0 - 0.5) > floor(v1 - 0.5)) {
                     continue;
                 }
                 let a = verts[i];
@@ -203,14 +210,20 @@ pub fn render_view(
     }
     let shade = shade_pixels(&frag, terrain, detail, cam, sun, opts);
     let mut range = vec![0f32; w * h];
-    for j in 0..h {
+    // Normalized image x of each column (f32).
+    let dus: Vec<f32> = (0..w)
+        .map(|i| (i as f32 + 0.5 - cam.cx) / cam.focal_px)
+        .collect();
+    for (j, (out, inv_z)) in range
+        .chunks_exact_mut(w)
+        .zip(frag.inv_z.chunks_exact(w))
+        .enumerate()
+    {
         let dv = (j as f32 + 0.5 - cam.cy) / cam.focal_px;
-        for i in 0..w {
-            let k = j * w + i;
-            if frag.inv_z[k] > 0.0 {
-                let du = (i as f32 + 0.5 - cam.cx) / cam.focal_px;
-                range[k] = (1.0 + du * du + dv * dv).sqrt() / frag.inv_z[k];
-            }
+        // Branch-free (vectorizes): sky pixels compute a value and keep 0.
+        for ((o, &iz), &du) in out.iter_mut().zip(inv_z).zip(&dus) {
+            let r = (1.0 + du * du + dv * dv).sqrt() / iz;
+            *o = if iz > 0.0 { r } else { 0.0 };
         }
     }
     (shade, range)
@@ -510,8 +523,8 @@ fn tri(frag: &mut Fragments, lvl: u8, a: Vtx, b: Vtx, c: Vtx) {
         // Wide rows: the columns where the first two weights pass (an interval of the box,
         // see `passing`); the loop still tests all three at each of them.
         let (i0, i1) = if i1 - i0 >= WIDE_ROW_PX {
-            match passing(i0, i1, |i| !(e0(i) < EPS))
-                .and_then(|(l, r)| passing(l, r, |i| !(e1(i) < EPS)))
+            match passing(i0, i1, |i| e0(i) >= EPS)
+                .and_then(|(l, r)| passing(l, r, |i| e1(i) >= EPS))
             {
                 Some(s) => s,
                 None => continue,
@@ -553,7 +566,8 @@ const WIDE_ROW_PX: usize = 6;
 /// The columns of `lo..=hi` where `pass` holds, for a `pass` monotonic in the column (false
 /// then true, or true then false): `None` if none. A barycentric weight as rasterized is
 /// such a function on a row (`((A - B (px - u)) * s`: every rounding is monotonic), so
-/// `w >= EPS` is, and the columns outside fail the test the scan would make.
+/// `w >= EPS` is, and the columns outside fail the test the scan would make (the weights
+/// are finite: the vertices are, and the area is at least 1e-9).
 #[inline]
 fn passing(lo: usize, hi: usize, pass: impl Fn(usize) -> bool) -> Option<(usize, usize)> {
     match (pass(lo), pass(hi)) {
@@ -588,8 +602,8 @@ fn passing(lo: usize, hi: usize, pass: impl Fn(usize) -> bool) -> Option<(usize,
     }
 }
 
-/// `x.ceil()`, bit for bit up to the sign of a zero result (callers clamp at 0), without
-/// the library call baseline x86-64 makes for it.
+/// `x.ceil()`, bit for bit up to the sign of a zero result (callers clamp at 0 or compare),
+/// without the library call baseline x86-64 makes for it.
 #[inline]
 fn ceil(x: f32) -> f32 {
     // Below 2^23 in magnitude the truncation is exact in i32 and back; beyond, every f32
