@@ -65,14 +65,23 @@ struct Vtx {
 const NEAR_M: f32 = 0.05;
 
 /// What a pixel keeps of the nearest surface until it is shaded: the mesh's attributes,
-/// interpolated perspective-correctly.
-struct Fragments {
-    inv_z: Vec<f32>,
-    normal: Vec<[f32; 3]>,
-    albedo: Vec<f32>,
-    lit: Vec<f32>,
+/// interpolated perspective-correctly. One 32-byte record per pixel, so a depth-test win
+/// writes one cache line.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(32))]
+struct Frag {
+    /// `1 / z`, 1/metres (0: sky).
+    inv_z: f32,
+    normal: [f32; 3],
+    albedo: f32,
+    lit: f32,
     /// Mesh level of the pixel's triangle.
-    level: Vec<u8>,
+    level: u8,
+}
+
+/// The image's fragments, row-major.
+struct Fragments {
+    px: Vec<Frag>,
     w: usize,
     h: usize,
 }
@@ -94,11 +103,7 @@ pub fn render_view(
 ) -> (Vec<f32>, Vec<f32>) {
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
     let mut frag = Fragments {
-        inv_z: vec![0f32; w * h],
-        normal: vec![[0f32; 3]; w * h],
-        albedo: vec![0f32; w * h],
-        lit: vec![0f32; w * h],
-        level: vec![0u8; w * h],
+        px: vec![Frag::default(); w * h],
         w,
         h,
     };
@@ -214,14 +219,15 @@ pub fn render_view(
     let dus: Vec<f32> = (0..w)
         .map(|i| (i as f32 + 0.5 - cam.cx) / cam.focal_px)
         .collect();
-    for (j, (out, inv_z)) in range
+    for (j, (out, row)) in range
         .chunks_exact_mut(w)
-        .zip(frag.inv_z.chunks_exact(w))
+        .zip(frag.px.chunks_exact(w))
         .enumerate()
     {
         let dv = (j as f32 + 0.5 - cam.cy) / cam.focal_px;
-        // Branch-free (vectorizes): sky pixels compute a value and keep 0.
-        for ((o, &iz), &du) in out.iter_mut().zip(inv_z).zip(&dus) {
+        // Branch-free: sky pixels compute a value and keep 0.
+        for ((o, p), &du) in out.iter_mut().zip(row).zip(&dus) {
+            let iz = p.inv_z;
             let r = (1.0 + du * du + dv * dv).sqrt() / iz;
             *o = if iz > 0.0 { r } else { 0.0 };
         }
@@ -413,35 +419,35 @@ fn shade_pixels(
         .collect();
     let avx2 = has_avx2();
     let mut geo = RowGeometry::new(w);
+    // The row's `1 / z`, contiguous for the vectorized pass.
+    let mut inv_z = vec![0f32; w];
     for j in 0..h {
         let yn = (j as f64 + 0.5 - cam.cy as f64) / f;
         let row = j * w..(j + 1) * w;
-        let inv_z = &frag.inv_z[row.clone()];
+        let fr = &frag.px[row.clone()];
+        for (o, p) in inv_z.iter_mut().zip(fr) {
+            *o = p.inv_z;
+        }
         if !inv_z.iter().any(|&iz| iz > 0.0) {
             continue;
         }
-        geo.fill(inv_z, &xs, yn, &scam, avx2);
-        let out = &mut shade[row.clone()];
-        let normal = &frag.normal[row.clone()];
-        let albedo_row = &frag.albedo[row.clone()];
-        let lit_row = &frag.lit[row.clone()];
-        let level_row = &frag.level[row];
-        for i in 0..w {
-            let iz = inv_z[i];
-            if iz <= 0.0 {
+        geo.fill(&inv_z, &xs, yn, &scam, avx2);
+        let out = &mut shade[row];
+        for (i, p) in fr.iter().enumerate() {
+            if p.inv_z <= 0.0 {
                 continue;
             }
             let view = [geo.view[0][i], geo.view[1][i], geo.view[2][i]];
-            let nb = normal[i];
+            let nb = p.normal;
             let mut n = [nb[0] as f64, nb[1] as f64, nb[2] as f64];
-            let mut albedo = albedo_row[i] as f64;
+            let mut albedo = p.albedo as f64;
             // Ground footprint of the pixel across the line of sight, metres.
             let across = geo.across[i];
             // The mesh's shadow mask, sharpened: the 0.5 contour of its bilinear mask is
             // the edge, drawn one pixel wide instead of one lattice cell wide.
-            let cell = spacing[level_row[i] as usize];
+            let cell = spacing[p.level as usize];
             let gain = (cell / across).max(1.0);
-            let mut lit = (0.5 + (lit_row[i] as f64 - 0.5) * gain).clamp(0.0, 1.0);
+            let mut lit = (0.5 + (p.lit as f64 - 0.5) * gain).clamp(0.0, 1.0);
             let (wx, wy) = (centre[0] + geo.dx[i], centre[1] + geo.dy[i]);
             let texture = match detail {
                 Some(t) if t.covers(wx, wy) => {
@@ -533,27 +539,24 @@ fn tri(frag: &mut Fragments, lvl: u8, a: Vtx, b: Vtx, c: Vtx) {
             (i0, i1)
         };
         // The row's span of the box; `i1 < w`, `j1 < h`, so it lies inside the image.
-        let span = j * w + i0..j * w + i1 + 1;
-        let inv_z = &mut frag.inv_z[span.clone()];
-        let normal = &mut frag.normal[span.clone()];
-        let albedo = &mut frag.albedo[span.clone()];
-        let lit = &mut frag.lit[span.clone()];
-        let level = &mut frag.level[span];
-        for (k, i) in (i0..=i1).enumerate() {
+        let span = &mut frag.px[j * w + i0..j * w + i1 + 1];
+        for (p, i) in span.iter_mut().zip(i0..=i1) {
             let (w0, w1) = (e0(i), e1(i));
             let w2 = 1.0 - w0 - w1;
             if (w0 < EPS) | (w1 < EPS) | (w2 < EPS) {
                 continue;
             }
             let iz = w0 * iza + w1 * izb + w2 * izc;
-            if iz > inv_z[k] {
-                inv_z[k] = iz;
+            if iz > p.inv_z {
                 let q = 1.0 / iz;
                 let at = |t: usize| (w0 * pa[t] + w1 * pb[t] + w2 * pc[t]) * q;
-                normal[k] = [at(0), at(1), at(2)];
-                albedo[k] = at(3);
-                lit[k] = at(4);
-                level[k] = lvl;
+                *p = Frag {
+                    inv_z: iz,
+                    normal: [at(0), at(1), at(2)],
+                    albedo: at(3),
+                    lit: at(4),
+                    level: lvl,
+                };
             }
         }
     }
