@@ -268,3 +268,58 @@ fn shadow_sweep_matches_the_plain_sweep() {
         }
     }
 }
+
+/// FNV-1a over the bits of what the rasterizer returns (gray levels before quantization and
+/// range, metres) for left and right cameras of every view at a few locations of the
+/// textured world, under two suns, at 640 x 360.
+fn raster_digest() -> u64 {
+    use orbfix_host::render::{
+        raster::{render_view, NodeAttrs},
+        shadow::ShadowField,
+        stereo::right_camera,
+        terrain::Terrain,
+    };
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut eat = |bits: &[f32]| {
+        for v in bits {
+            for b in v.to_bits().to_le_bytes() {
+                h = (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+    };
+    let world = World::new(3);
+    let mut o = RenderOptions::default();
+    o.camera.width_px = 640;
+    o.camera.height_px = 360;
+    let focal = o.camera_params().focal_px() as f64;
+    let cache = TileCache::new(1 << 22);
+    let suns = [Sun::default(), Sun::new(12.0, 250.0).unwrap()];
+    for i in 0..3 {
+        let (x, y) = (500.0 + 131.0 * i as f64, 700.0 - 77.0 * i as f64);
+        let sun = suns[i % 2];
+        let pose = render::ground_pose(&world, x, y, 37.0 * i as f64);
+        let t = Terrain::around_cached(&world, x, y, &o, focal, Some(&cache));
+        let s = ShadowField::build(&t, &sun, o.shadow_reach_m);
+        let a = NodeAttrs::compute(&t, &s);
+        let detail = render::near_field_detail(&world, &pose, &t, &sun, &o);
+        assert!(detail.is_some(), "the textured world has a near field");
+        for cam in render::view_cameras(&pose, &o).unwrap() {
+            for c in [cam, right_camera(&cam, 0.3)] {
+                let (gray, range) = render_view(&t, &a, detail.as_ref(), &c, &sun, &o);
+                eat(&gray);
+                eat(&range);
+            }
+        }
+    }
+    h
+}
+
+#[test]
+fn raster_output_is_bit_identical() {
+    // Pins the rasterizer's output (gray levels before quantization and range) of left and
+    // right views: a speed-up of the rasterizer must leave every bit as it was.
+    let digest = raster_digest();
+    assert_eq!(digest, RASTER_DIGEST, "digest now {digest:#018x}");
+}
+
+const RASTER_DIGEST: u64 = 0x5c8b_761f_10f1_3099;

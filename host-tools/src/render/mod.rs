@@ -548,7 +548,19 @@ impl GrayMap {
     /// Gray level (0..255, not rounded) of a linear radiance.
     #[inline]
     pub fn gray(&self, radiance: f64) -> f32 {
-        let t = radiance.clamp(0.0, 1.0).sqrt() * Self::N as f64;
+        self.gray_at(Self::position(radiance))
+    }
+
+    /// Table position (0..=4096) of a linear radiance: the first step of [`Self::gray`],
+    /// free of lookups (vectorizes).
+    #[inline(always)]
+    pub(crate) fn position(radiance: f64) -> f64 {
+        radiance.clamp(0.0, 1.0).sqrt() * Self::N as f64
+    }
+
+    /// Gray level at table position `t` from [`Self::position`]: the rest of [`Self::gray`].
+    #[inline(always)]
+    pub(crate) fn gray_at(&self, t: f64) -> f32 {
         let i = (t as usize).min(Self::N);
         let f = (t - i as f64) as f32;
         self.table[i] * (1.0 - f) + self.table[i + 1] * f

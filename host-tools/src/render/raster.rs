@@ -65,14 +65,23 @@ struct Vtx {
 const NEAR_M: f32 = 0.05;
 
 /// What a pixel keeps of the nearest surface until it is shaded: the mesh's attributes,
-/// interpolated perspective-correctly.
-struct Fragments {
-    inv_z: Vec<f32>,
-    normal: Vec<[f32; 3]>,
-    albedo: Vec<f32>,
-    lit: Vec<f32>,
+/// interpolated perspective-correctly. One 32-byte record per pixel, so a depth-test win
+/// writes one cache line.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(32))]
+struct Frag {
+    /// `1 / z`, 1/metres (0: sky).
+    inv_z: f32,
+    normal: [f32; 3],
+    albedo: f32,
+    lit: f32,
     /// Mesh level of the pixel's triangle.
-    level: Vec<u8>,
+    level: u8,
+}
+
+/// The image's fragments, row-major.
+struct Fragments {
+    px: Vec<Frag>,
     w: usize,
     h: usize,
 }
@@ -94,11 +103,7 @@ pub fn render_view(
 ) -> (Vec<f32>, Vec<f32>) {
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
     let mut frag = Fragments {
-        inv_z: vec![0f32; w * h],
-        normal: vec![[0f32; 3]; w * h],
-        albedo: vec![0f32; w * h],
-        lit: vec![0f32; w * h],
-        level: vec![0u8; w * h],
+        px: vec![Frag::default(); w * h],
         w,
         h,
     };
@@ -181,15 +186,22 @@ pub fn render_view(
                 // Cells behind the near plane or wholly outside the image: skip.
                 let (mut u0, mut u1, mut v0, mut v1) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
                 let mut behind = false;
+                let mut nan = false;
                 for &q in &idx {
                     let p = verts[q];
                     behind |= p.z < NEAR_M;
+                    nan |= p.u.is_nan() | p.v.is_nan();
                     u0 = u0.min(p.u);
                     u1 = u1.max(p.u);
                     v0 = v0.min(p.v);
                     v1 = v1.max(p.v);
                 }
                 if behind || u1 < 0.0 || v1 < 0.0 || u0 > w as f32 || v0 > h as f32 {
+                    continue;
+                }
+                // No pixel centre inside the cell's box: none inside either triangle's box
+                // (which lies inside the cell's), so both would draw nothing.
+                if !nan && (ceil(u0 - 0.5) > floor(u1 - 0.5) || ceil(v0 - 0.5) > floor(v1 - 0.5)) {
                     continue;
                 }
                 let a = verts[i];
@@ -203,17 +215,177 @@ pub fn render_view(
     }
     let shade = shade_pixels(&frag, terrain, detail, cam, sun, opts);
     let mut range = vec![0f32; w * h];
-    for j in 0..h {
+    // Normalized image x of each column (f32).
+    let dus: Vec<f32> = (0..w)
+        .map(|i| (i as f32 + 0.5 - cam.cx) / cam.focal_px)
+        .collect();
+    for (j, (out, row)) in range
+        .chunks_exact_mut(w)
+        .zip(frag.px.chunks_exact(w))
+        .enumerate()
+    {
         let dv = (j as f32 + 0.5 - cam.cy) / cam.focal_px;
-        for i in 0..w {
-            let k = j * w + i;
-            if frag.inv_z[k] > 0.0 {
-                let du = (i as f32 + 0.5 - cam.cx) / cam.focal_px;
-                range[k] = (1.0 + du * du + dv * dv).sqrt() / frag.inv_z[k];
-            }
+        // Branch-free: sky pixels compute a value and keep 0.
+        for ((o, p), &du) in out.iter_mut().zip(row).zip(&dus) {
+            let iz = p.inv_z;
+            let r = (1.0 + du * du + dv * dv).sqrt() / iz;
+            *o = if iz > 0.0 { r } else { 0.0 };
         }
     }
     (shade, range)
+}
+
+/// One image row's per-pixel geometry, computed for every pixel of the row (sky too, where
+/// the values are never read) by branch-free loops the compiler vectorizes; each value is the
+/// same sequence of f64 operations as a per-pixel computation, so the bits are the same.
+struct RowGeometry {
+    /// World offset from the camera centre, metres (x and y).
+    dx: Vec<f64>,
+    dy: Vec<f64>,
+    /// Unit vector to the viewer, world frame.
+    view: [Vec<f64>; 3],
+    /// Ground footprint of the pixel across the line of sight, metres.
+    across: Vec<f64>,
+    /// The shaded surface's normal (not yet unit), albedo and lit fraction 0..1, filled for
+    /// covered pixels by the per-pixel pass.
+    normal: [Vec<f64>; 3],
+    albedo: Vec<f64>,
+    lit: Vec<f64>,
+    /// Position in the gray table ([`super::GrayMap::position`]) of the pixel's radiance.
+    position: Vec<f64>,
+}
+
+/// Camera-to-world rotation, centre and focal length of [`shade_pixels`]'s camera (f64).
+struct ShadeCamera {
+    /// Columns of world_to_cam (the rows of its transpose, camera to world).
+    c0: [f64; 3],
+    c1: [f64; 3],
+    c2: [f64; 3],
+    /// Focal length, pixels.
+    f: f64,
+}
+
+impl RowGeometry {
+    fn new(w: usize) -> Self {
+        Self {
+            dx: vec![0.0; w],
+            dy: vec![0.0; w],
+            view: [vec![0.0; w], vec![0.0; w], vec![0.0; w]],
+            across: vec![0.0; w],
+            normal: [vec![0.0; w], vec![0.0; w], vec![0.0; w]],
+            albedo: vec![0.0; w],
+            lit: vec![0.0; w],
+            position: vec![0.0; w],
+        }
+    }
+
+    /// Radiance of every pixel of the row from its normal, albedo, lit fraction and view
+    /// direction, to its gray-table position (`w` pixels; sky pixels hold stale values
+    /// whose results are never read).
+    #[inline(always)]
+    fn radiance_body(&mut self, w: usize, sdir: [f64; 3], opts: &RenderOptions) {
+        let [n0, n1, n2] = &self.normal;
+        let (n0, n1, n2) = (&n0[..w], &n1[..w], &n2[..w]);
+        let [v0, v1, v2] = &self.view;
+        let (v0, v1, v2) = (&v0[..w], &v1[..w], &v2[..w]);
+        let albedo = &self.albedo[..w];
+        let lit = &self.lit[..w];
+        let position = &mut self.position[..w];
+        for i in 0..w {
+            let n = [n0[i], n1[i], n2[i]];
+            let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-9);
+            let n = [n[0] / l, n[1] / l, n[2] / l];
+            let view = [v0[i], v1[i], v2[i]];
+            position[i] = super::GrayMap::position(opts.radiance(albedo[i], n, sdir, view, lit[i]));
+        }
+    }
+
+    /// [`Self::radiance_body`] compiled for AVX2 (wider lanes, the same operations per lane).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn radiance_avx2(&mut self, w: usize, sdir: [f64; 3], opts: &RenderOptions) {
+        self.radiance_body(w, sdir, opts);
+    }
+
+    fn radiance(&mut self, w: usize, sdir: [f64; 3], opts: &RenderOptions, avx2: bool) {
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // Safety: `avx2` is true only where the CPU was detected to support AVX2.
+            unsafe { self.radiance_avx2(w, sdir, opts) };
+            return;
+        }
+        let _ = avx2;
+        self.radiance_body(w, sdir, opts);
+    }
+
+    /// Fills the row from its `1 / z` (`inv_z`), the columns' normalized image x (`xs`) and
+    /// the row's normalized image y (`yn`). All slices as long as the row.
+    #[inline(always)]
+    fn fill_body(&mut self, inv_z: &[f32], xs: &[f64], yn: f64, cam: &ShadeCamera) {
+        let w = inv_z.len();
+        let (c0, c1, c2, f) = (cam.c0, cam.c1, cam.c2, cam.f);
+        let xs = &xs[..w];
+        let dx = &mut self.dx[..w];
+        let dy = &mut self.dy[..w];
+        let [v0, v1, v2] = &mut self.view;
+        let (v0, v1, v2) = (&mut v0[..w], &mut v1[..w], &mut v2[..w]);
+        let across = &mut self.across[..w];
+        for i in 0..w {
+            let z = 1.0 / inv_z[i] as f64;
+            let xn = xs[i];
+            // Camera-frame point (xn z, yn z, z) to world offset from the centre:
+            // world = R^T cam, R^T's rows are world_to_cam's columns.
+            let pc = [xn * z, yn * z, z];
+            let d = [
+                c0[0] * pc[0] + c0[1] * pc[1] + c0[2] * pc[2],
+                c1[0] * pc[0] + c1[1] * pc[1] + c1[2] * pc[2],
+                c2[0] * pc[0] + c2[1] * pc[1] + c2[2] * pc[2],
+            ];
+            let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-9);
+            dx[i] = d[0];
+            dy[i] = d[1];
+            v0[i] = -d[0] / dist;
+            v1[i] = -d[1] / dist;
+            v2[i] = -d[2] / dist;
+            across[i] = z / f;
+        }
+    }
+
+    /// [`Self::fill_body`] compiled for AVX2 (wider lanes, the same operations per lane).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn fill_avx2(&mut self, inv_z: &[f32], xs: &[f64], yn: f64, cam: &ShadeCamera) {
+        self.fill_body(inv_z, xs, yn, cam);
+    }
+
+    fn fill(&mut self, inv_z: &[f32], xs: &[f64], yn: f64, cam: &ShadeCamera, avx2: bool) {
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // Safety: `avx2` is true only where the CPU was detected to support AVX2.
+            unsafe { self.fill_avx2(inv_z, xs, yn, cam) };
+            return;
+        }
+        let _ = avx2;
+        self.fill_body(inv_z, xs, yn, cam);
+    }
+}
+
+/// Whether the CPU supports AVX2 (wider lanes for the shading's vectorized loops).
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 /// Shades every covered pixel once (see [`render_view`]); gray levels 0..255, sky 0.
@@ -232,45 +404,51 @@ fn shade_pixels(
     let rot = cam.world_to_cam;
     // Camera-to-world: the transpose of world_to_cam.
     let col = |j: usize| [rot[(0, j)] as f64, rot[(1, j)] as f64, rot[(2, j)] as f64];
-    let (c0, c1, c2) = (col(0), col(1), col(2));
-    let centre = [
-        cam.centre.x as f64,
-        cam.centre.y as f64,
-        cam.centre.z as f64,
-    ];
     let f = cam.focal_px as f64;
+    let scam = ShadeCamera {
+        c0: col(0),
+        c1: col(1),
+        c2: col(2),
+        f,
+    };
+    let centre = [cam.centre.x as f64, cam.centre.y as f64];
     let spacing: Vec<f64> = terrain.levels.iter().map(|l| l.m()).collect();
+    // Normalized image x of each column.
+    let xs: Vec<f64> = (0..w)
+        .map(|i| (i as f64 + 0.5 - cam.cx as f64) / f)
+        .collect();
+    let avx2 = has_avx2();
+    let mut geo = RowGeometry::new(w);
+    // The row's `1 / z`, contiguous for the vectorized pass.
+    let mut inv_z = vec![0f32; w];
     for j in 0..h {
         let yn = (j as f64 + 0.5 - cam.cy as f64) / f;
-        for i in 0..w {
-            let k = j * w + i;
-            let iz = frag.inv_z[k];
-            if iz <= 0.0 {
+        let row = j * w..(j + 1) * w;
+        let fr = &frag.px[row.clone()];
+        for (o, p) in inv_z.iter_mut().zip(fr) {
+            *o = p.inv_z;
+        }
+        if !inv_z.iter().any(|&iz| iz > 0.0) {
+            continue;
+        }
+        geo.fill(&inv_z, &xs, yn, &scam, avx2);
+        let out = &mut shade[row];
+        for (i, p) in fr.iter().enumerate() {
+            if p.inv_z <= 0.0 {
                 continue;
             }
-            let z = 1.0 / iz as f64;
-            let xn = (i as f64 + 0.5 - cam.cx as f64) / f;
-            // Camera-frame point (xn z, yn z, z) to world offset from the centre:
-            // world = R^T cam, R^T's rows are world_to_cam's columns.
-            let pc = [xn * z, yn * z, z];
-            let d = [
-                c0[0] * pc[0] + c0[1] * pc[1] + c0[2] * pc[2],
-                c1[0] * pc[0] + c1[1] * pc[1] + c1[2] * pc[2],
-                c2[0] * pc[0] + c2[1] * pc[1] + c2[2] * pc[2],
-            ];
-            let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-9);
-            let view = [-d[0] / dist, -d[1] / dist, -d[2] / dist];
-            let nb = frag.normal[k];
+            let view = [geo.view[0][i], geo.view[1][i], geo.view[2][i]];
+            let nb = p.normal;
             let mut n = [nb[0] as f64, nb[1] as f64, nb[2] as f64];
-            let mut albedo = frag.albedo[k] as f64;
+            let mut albedo = p.albedo as f64;
             // Ground footprint of the pixel across the line of sight, metres.
-            let across = z / f;
+            let across = geo.across[i];
             // The mesh's shadow mask, sharpened: the 0.5 contour of its bilinear mask is
             // the edge, drawn one pixel wide instead of one lattice cell wide.
-            let cell = spacing[frag.level[k] as usize];
+            let cell = spacing[p.level as usize];
             let gain = (cell / across).max(1.0);
-            let mut lit = (0.5 + (frag.lit[k] as f64 - 0.5) * gain).clamp(0.0, 1.0);
-            let (wx, wy) = (centre[0] + d[0], centre[1] + d[1]);
+            let mut lit = (0.5 + (p.lit as f64 - 0.5) * gain).clamp(0.0, 1.0);
+            let (wx, wy) = (centre[0] + geo.dx[i], centre[1] + geo.dy[i]);
             let texture = match detail {
                 Some(t) if t.covers(wx, wy) => {
                     // Stretched along the line of sight by 1 / cos e; the geometric mean of
@@ -292,9 +470,17 @@ fn shade_pixels(
                 albedo *= 1.0 + wgt * (t.albedo_mul as f64 - 1.0);
                 lit += wgt * (t.lit as f64 - lit);
             }
-            let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-9);
-            let n = [n[0] / l, n[1] / l, n[2] / l];
-            shade[k] = gmap.gray(opts.radiance(albedo, n, sdir, view, lit));
+            geo.normal[0][i] = n[0];
+            geo.normal[1][i] = n[1];
+            geo.normal[2][i] = n[2];
+            geo.albedo[i] = albedo;
+            geo.lit[i] = lit;
+        }
+        geo.radiance(w, sdir, opts, avx2);
+        for i in 0..w {
+            if inv_z[i] > 0.0 {
+                out[i] = gmap.gray_at(geo.position[i]);
+            }
         }
     }
     shade
@@ -311,10 +497,10 @@ fn tri(frag: &mut Fragments, lvl: u8, a: Vtx, b: Vtx, c: Vtx) {
     let min_v = a.v.min(b.v).min(c.v);
     let max_v = a.v.max(b.v).max(c.v);
     // Pixel centres (i + 0.5) inside the box.
-    let i0 = (min_u - 0.5).ceil().max(0.0);
-    let i1 = (max_u - 0.5).floor().min(w as f32 - 1.0);
-    let j0 = (min_v - 0.5).ceil().max(0.0);
-    let j1 = (max_v - 0.5).floor().min(h as f32 - 1.0);
+    let i0 = ceil(min_u - 0.5).max(0.0);
+    let i1 = floor(max_u - 0.5).min(w as f32 - 1.0);
+    let j0 = ceil(min_v - 0.5).max(0.0);
+    let j1 = floor(max_v - 0.5).min(h as f32 - 1.0);
     if !(i0 <= i1 && j0 <= j1) {
         return;
     }
@@ -331,26 +517,123 @@ fn tri(frag: &mut Fragments, lvl: u8, a: Vtx, b: Vtx, c: Vtx) {
     const EPS: f32 = -1e-5;
     for j in j0..=j1 {
         let py = j as f32 + 0.5;
-        let row = j * w;
-        for i in i0..=i1 {
+        // Barycentric weights of pixel column `i` on this row, as computed below.
+        let e0 = |i: usize| {
             let px = i as f32 + 0.5;
-            let w0 = ((c.u - b.u) * (py - b.v) - (c.v - b.v) * (px - b.u)) * inv_area;
-            let w1 = ((a.u - c.u) * (py - c.v) - (a.v - c.v) * (px - c.u)) * inv_area;
+            ((c.u - b.u) * (py - b.v) - (c.v - b.v) * (px - b.u)) * inv_area
+        };
+        let e1 = |i: usize| {
+            let px = i as f32 + 0.5;
+            ((a.u - c.u) * (py - c.v) - (a.v - c.v) * (px - c.u)) * inv_area
+        };
+        // Wide rows: the columns where the first two weights pass (an interval of the box,
+        // see `passing`); the loop still tests all three at each of them.
+        let (i0, i1) = if i1 - i0 >= WIDE_ROW_PX {
+            match passing(i0, i1, |i| e0(i) >= EPS)
+                .and_then(|(l, r)| passing(l, r, |i| e1(i) >= EPS))
+            {
+                Some(s) => s,
+                None => continue,
+            }
+        } else {
+            (i0, i1)
+        };
+        // The row's span of the box; `i1 < w`, `j1 < h`, so it lies inside the image.
+        let span = &mut frag.px[j * w + i0..j * w + i1 + 1];
+        for (p, i) in span.iter_mut().zip(i0..=i1) {
+            let (w0, w1) = (e0(i), e1(i));
             let w2 = 1.0 - w0 - w1;
-            if w0 < EPS || w1 < EPS || w2 < EPS {
+            if (w0 < EPS) | (w1 < EPS) | (w2 < EPS) {
                 continue;
             }
             let iz = w0 * iza + w1 * izb + w2 * izc;
-            let k = row + i;
-            if iz > frag.inv_z[k] {
-                frag.inv_z[k] = iz;
+            if iz > p.inv_z {
                 let q = 1.0 / iz;
                 let at = |t: usize| (w0 * pa[t] + w1 * pb[t] + w2 * pc[t]) * q;
-                frag.normal[k] = [at(0), at(1), at(2)];
-                frag.albedo[k] = at(3);
-                frag.lit[k] = at(4);
-                frag.level[k] = lvl;
+                *p = Frag {
+                    inv_z: iz,
+                    normal: [at(0), at(1), at(2)],
+                    albedo: at(3),
+                    lit: at(4),
+                    level: lvl,
+                };
             }
         }
+    }
+}
+
+/// Rows of a triangle's box at least this wide (pixels, less one) are narrowed by
+/// [`passing`] before the per-pixel tests; narrower ones are scanned whole.
+const WIDE_ROW_PX: usize = 6;
+
+/// The columns of `lo..=hi` where `pass` holds, for a `pass` monotonic in the column (false
+/// then true, or true then false): `None` if none. A barycentric weight as rasterized is
+/// such a function on a row (`((A - B (px - u)) * s`: every rounding is monotonic), so
+/// `w >= EPS` is, and the columns outside fail the test the scan would make (the weights
+/// are finite: the vertices are, and the area is at least 1e-9).
+#[inline]
+fn passing(lo: usize, hi: usize, pass: impl Fn(usize) -> bool) -> Option<(usize, usize)> {
+    match (pass(lo), pass(hi)) {
+        (true, true) => Some((lo, hi)),
+        (false, false) => None,
+        (true, false) => {
+            // The last passing column: pass(a), !pass(b).
+            let (mut a, mut b) = (lo, hi);
+            while b - a > 1 {
+                let m = a + (b - a) / 2;
+                if pass(m) {
+                    a = m;
+                } else {
+                    b = m;
+                }
+            }
+            Some((lo, a))
+        }
+        (false, true) => {
+            // The first passing column: !pass(a), pass(b).
+            let (mut a, mut b) = (lo, hi);
+            while b - a > 1 {
+                let m = a + (b - a) / 2;
+                if pass(m) {
+                    b = m;
+                } else {
+                    a = m;
+                }
+            }
+            Some((b, hi))
+        }
+    }
+}
+
+/// `x.ceil()`, bit for bit up to the sign of a zero result (callers clamp at 0 or compare),
+/// without the library call baseline x86-64 makes for it.
+#[inline]
+fn ceil(x: f32) -> f32 {
+    // Below 2^23 in magnitude the truncation is exact in i32 and back; beyond, every f32
+    // is an integer (and NaN goes to the library).
+    if x.abs() < 8_388_608.0 {
+        let t = x as i32 as f32;
+        if t < x {
+            t + 1.0
+        } else {
+            t
+        }
+    } else {
+        x.ceil()
+    }
+}
+
+/// `x.floor()`, bit for bit up to the sign of a zero result, as [`ceil`].
+#[inline]
+fn floor(x: f32) -> f32 {
+    if x.abs() < 8_388_608.0 {
+        let t = x as i32 as f32;
+        if t > x {
+            t - 1.0
+        } else {
+            t
+        }
+    } else {
+        x.floor()
     }
 }
