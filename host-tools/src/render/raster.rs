@@ -19,13 +19,82 @@ pub struct NodeAttrs {
     pub normal: Vec<Vec<[f32; 3]>>,
     /// Per level, per node: lit fraction 0..1.
     pub lit: Vec<Vec<f32>>,
+    /// Per level, per block of [`BLOCK_CELLS`] x [`BLOCK_CELLS`] cells (row-major, see
+    /// [`Blocks`]): lowest and highest node height of the block's nodes (its edges
+    /// included), metres; `[-inf, inf]` where a height is not finite.
+    pub block_z: Vec<Vec<[f32; 2]>>,
+}
+
+/// One level's normals, lit fractions and block height ranges (see [`NodeAttrs`]).
+type LevelAttrs = (Vec<[f32; 3]>, Vec<f32>, Vec<[f32; 2]>);
+
+/// Cells per side of a block culled against the view frustum as one.
+pub const BLOCK_CELLS: usize = 16;
+
+/// The blocks of a level's `(nx - 1) x (ny - 1)` cells.
+#[derive(Clone, Copy)]
+struct Blocks {
+    nx: usize,
+    ny: usize,
+    /// Blocks per row and per column.
+    bx: usize,
+    by: usize,
+}
+
+impl Blocks {
+    fn new(nx: usize, ny: usize) -> Self {
+        let n = |k: usize| k.saturating_sub(1).div_ceil(BLOCK_CELLS);
+        Self {
+            nx,
+            ny,
+            bx: n(nx),
+            by: n(ny),
+        }
+    }
+
+    /// Block `(bc, br)`'s cells: columns `c0..c1`, rows `r0..r1` (its nodes: `c0..=c1`,
+    /// `r0..=r1`).
+    fn cells(&self, bc: usize, br: usize) -> (usize, usize, usize, usize) {
+        let (c0, r0) = (bc * BLOCK_CELLS, br * BLOCK_CELLS);
+        (
+            c0,
+            (c0 + BLOCK_CELLS).min(self.nx - 1),
+            r0,
+            (r0 + BLOCK_CELLS).min(self.ny - 1),
+        )
+    }
+
+    /// Lowest and highest of `height` over the nodes of every block, row-major.
+    fn z_range(&self, height: &[f32]) -> Vec<[f32; 2]> {
+        let mut out = Vec::with_capacity(self.bx * self.by);
+        for br in 0..self.by {
+            for bc in 0..self.bx {
+                let (c0, c1, r0, r1) = self.cells(bc, br);
+                let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                let mut finite = true;
+                for r in r0..=r1 {
+                    for &z in &height[r * self.nx + c0..=r * self.nx + c1] {
+                        finite &= z.is_finite();
+                        lo = lo.min(z);
+                        hi = hi.max(z);
+                    }
+                }
+                out.push(if finite {
+                    [lo, hi]
+                } else {
+                    [f32::NEG_INFINITY, f32::INFINITY]
+                });
+            }
+        }
+        out
+    }
 }
 
 impl NodeAttrs {
     /// Normals and shadows of every node of `terrain`.
     pub fn compute(terrain: &Terrain, shadow: &ShadowField) -> Self {
         use rayon::prelude::*;
-        let per: Vec<(Vec<[f32; 3]>, Vec<f32>)> = terrain
+        let per: Vec<LevelAttrs> = terrain
             .levels
             .par_iter()
             .map(|l| {
@@ -40,11 +109,25 @@ impl NodeAttrs {
                         lit.push(shadow.lit(x, y));
                     }
                 }
-                (normal, lit)
+                let block_z = if nx >= 2 && ny >= 2 {
+                    Blocks::new(nx, ny).z_range(&l.grid.height_m)
+                } else {
+                    Vec::new()
+                };
+                (normal, lit, block_z)
             })
             .collect();
-        let (normal, lit) = per.into_iter().unzip();
-        Self { normal, lit }
+        let (mut normal, mut lit, mut block_z) = (Vec::new(), Vec::new(), Vec::new());
+        for (n, l, z) in per {
+            normal.push(n);
+            lit.push(l);
+            block_z.push(z);
+        }
+        Self {
+            normal,
+            lit,
+            block_z,
+        }
     }
 }
 
@@ -125,34 +208,13 @@ pub fn render_view(
     for (k, level) in terrain.levels.iter().enumerate() {
         let g = &level.grid;
         let (nx, ny) = (g.nx, g.ny);
+        if nx < 2 || ny < 2 {
+            continue;
+        }
         verts.clear();
         verts.resize(nx * ny, Vtx::default());
         let normals = &attrs.normal[k];
         let lits = &attrs.lit[k];
-        for rr in 0..ny {
-            let y = g.origin_y_m - (rr as f64 + 0.5) * g.m_per_px;
-            for c in 0..nx {
-                let i = rr * nx + c;
-                let x = g.origin_x_m + (c as f64 + 0.5) * g.m_per_px;
-                let zw = g.height_m[i] as f64;
-                let d = [x - ccx, y - ccy, zw - ccz];
-                let cz = rows[2][0] * d[0] + rows[2][1] * d[1] + rows[2][2] * d[2];
-                if cz < NEAR_M as f64 {
-                    verts[i].z = cz as f32;
-                    continue;
-                }
-                let cxx = rows[0][0] * d[0] + rows[0][1] * d[1] + rows[0][2] * d[2];
-                let cyy = rows[1][0] * d[0] + rows[1][1] * d[1] + rows[1][2] * d[2];
-                verts[i] = Vtx {
-                    u: (f * cxx / cz + pcx) as f32,
-                    v: (f * cyy / cz + pcy) as f32,
-                    z: cz as f32,
-                    n: normals[i],
-                    a: g.albedo[i],
-                    lit: lits[i],
-                };
-            }
-        }
         // Hole: cells wholly inside the finer level, shrunk by one cell of this level.
         let hole = if k > 0 {
             let b = terrain.levels[k - 1].bounds;
@@ -164,14 +226,88 @@ pub fn render_view(
         let own = level.bounds;
         let m = g.m_per_px;
         let lvl = k.min(255) as u8;
+        // Cell edges as the cell loop computes them (each monotonic in its index).
+        let x_w = |c: usize| g.origin_x_m + (c as f64 + 0.5) * m;
+        let y_n = |rr: usize| g.origin_y_m - (rr as f64 + 0.5) * m;
+        // Whether the cell loop would skip cells by their position alone: outside the
+        // level's square (`x_e`, `y_s`: the east and south edges) or inside the hole.
+        let outside = |x_w: f64, x_e: f64, y_s: f64, y_n: f64| {
+            x_e < own[0] - m || x_w > own[2] + m || y_n < own[1] - m || y_s > own[3] + m
+        };
+        let in_hole = |x_w: f64, x_e: f64, y_s: f64, y_n: f64| match hole {
+            Some(hb) => x_w >= hb[0] && x_e <= hb[2] && y_s >= hb[1] && y_n <= hb[3],
+            None => false,
+        };
+        // Blocks whose every cell the cell loop would skip (below): wholly outside the
+        // level's square, inside the hole, or with every node behind the near plane or on
+        // the far side of one of the image's edges. Only the other blocks' nodes are
+        // projected (a node on a block's edge once per block, the same value each time).
+        let blocks = Blocks::new(nx, ny);
+        let block_z = &attrs.block_z[k];
+        let mut drawn = vec![false; blocks.bx * blocks.by];
+        for br in 0..blocks.by {
+            for bc in 0..blocks.bx {
+                let (c0, c1, r0, r1) = blocks.cells(bc, br);
+                // The extreme cell edges of the block's cells: every cell's west edge is
+                // at least `bw`, its east edge at most `be`, and so on.
+                let (bw, be) = (x_w(c0), x_w(c1 - 1) + m);
+                let (bn, bs) = (y_n(r0), y_n(r1 - 1) - m);
+                if outside(bw, be, bs, bn) || in_hole(bw, be, bs, bn) {
+                    continue;
+                }
+                let [z0, z1] = block_z[br * blocks.bx + bc];
+                if frustum_excludes(
+                    [x_w(c0), x_w(c1)],
+                    [y_n(r1), y_n(r0)],
+                    [z0, z1],
+                    [ccx, ccy, ccz],
+                    &rows,
+                    [f, pcx, pcy],
+                    [w as f64, h as f64],
+                ) {
+                    continue;
+                }
+                drawn[br * blocks.bx + bc] = true;
+                for rr in r0..=r1 {
+                    let y = g.origin_y_m - (rr as f64 + 0.5) * g.m_per_px;
+                    for c in c0..=c1 {
+                        let i = rr * nx + c;
+                        let x = g.origin_x_m + (c as f64 + 0.5) * g.m_per_px;
+                        let zw = g.height_m[i] as f64;
+                        let d = [x - ccx, y - ccy, zw - ccz];
+                        let cz = rows[2][0] * d[0] + rows[2][1] * d[1] + rows[2][2] * d[2];
+                        if cz < NEAR_M as f64 {
+                            verts[i].z = cz as f32;
+                            continue;
+                        }
+                        let cxx = rows[0][0] * d[0] + rows[0][1] * d[1] + rows[0][2] * d[2];
+                        let cyy = rows[1][0] * d[0] + rows[1][1] * d[1] + rows[1][2] * d[2];
+                        verts[i] = Vtx {
+                            u: (f * cxx / cz + pcx) as f32,
+                            v: (f * cyy / cz + pcy) as f32,
+                            z: cz as f32,
+                            n: normals[i],
+                            a: g.albedo[i],
+                            lit: lits[i],
+                        };
+                    }
+                }
+            }
+        }
+        // The cells in their original order (ties of the depth test go to the first drawn),
+        // the culled blocks' left out.
         for rr in 0..ny - 1 {
-            let y_n = g.origin_y_m - (rr as f64 + 0.5) * m;
+            let y_n = y_n(rr);
             let y_s = y_n - m;
             if y_n < own[1] - m || y_s > own[3] + m {
                 continue;
             }
+            let br = rr / BLOCK_CELLS;
             for c in 0..nx - 1 {
-                let x_w = g.origin_x_m + (c as f64 + 0.5) * m;
+                if !drawn[br * blocks.bx + c / BLOCK_CELLS] {
+                    continue;
+                }
+                let x_w = x_w(c);
                 let x_e = x_w + m;
                 if x_e < own[0] - m || x_w > own[2] + m {
                     continue;
@@ -233,6 +369,54 @@ pub fn render_view(
         }
     }
     (shade, range)
+}
+
+/// Margin of [`frustum_excludes`]'s side tests, pixels.
+const FRUSTUM_MARGIN_PX: f64 = 2.0;
+
+/// Whether every node of a block projects where the cell loop skips its cells: the block's
+/// world box (`xs`, `ys`: west/east and south/north node positions, `zs`: lowest and
+/// highest height, metres) lies wholly before the near plane, or wholly beyond one of the
+/// image's edges by [`FRUSTUM_MARGIN_PX`]. The camera maps world `p` to camera
+/// `rows * (p - centre)`; `cam` is the focal length and principal point, `size` the image's
+/// width and height, pixels.
+///
+/// Each test is a half-space linear in the world point (the image's edge at `u = -M`, for
+/// instance, is `f x + (cx + M) z < 0`), so it holds over the box if it holds at its eight
+/// corners; a node in front of the near plane inside it then projects at `u < -M`, which
+/// the f64 projection's rounding (relative 1e-16) cannot bring to 0. A node behind the near
+/// plane makes its cells skipped anyway. Non-finite heights never exclude.
+fn frustum_excludes(
+    xs: [f64; 2],
+    ys: [f64; 2],
+    zs: [f32; 2],
+    centre: [f64; 3],
+    rows: &[[f64; 3]; 3],
+    cam: [f64; 3],
+    size: [f64; 2],
+) -> bool {
+    if !(zs[0].is_finite() && zs[1].is_finite()) {
+        return false;
+    }
+    let [f, pcx, pcy] = cam;
+    let mg = FRUSTUM_MARGIN_PX;
+    // Per test, whether it holds at every corner so far.
+    let (mut near, mut left, mut right, mut top, mut bottom) = (true, true, true, true, true);
+    for x in xs {
+        for y in ys {
+            for z in zs {
+                let d = [x - centre[0], y - centre[1], z as f64 - centre[2]];
+                let cam = |r: &[f64; 3]| r[0] * d[0] + r[1] * d[1] + r[2] * d[2];
+                let (cx, cy, cz) = (cam(&rows[0]), cam(&rows[1]), cam(&rows[2]));
+                near &= cz < NEAR_M as f64 * 0.5;
+                left &= f * cx + (pcx + mg) * cz < 0.0;
+                right &= f * cx + (pcx - size[0] - mg) * cz > 0.0;
+                top &= f * cy + (pcy + mg) * cz < 0.0;
+                bottom &= f * cy + (pcy - size[1] - mg) * cz > 0.0;
+            }
+        }
+    }
+    near || left || right || top || bottom
 }
 
 /// One image row's per-pixel geometry, computed for every pixel of the row (sky too, where
