@@ -14,6 +14,7 @@ pub mod detail;
 pub mod ortho;
 pub mod ply;
 pub mod raster;
+mod shade;
 pub mod shadow;
 pub mod stereo;
 pub mod terrain;
