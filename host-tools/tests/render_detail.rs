@@ -14,6 +14,31 @@ fn soil_at(w: &World, x: f64, y: f64) -> (f64, f64) {
 }
 
 #[test]
+fn soil_rows_are_the_point_values_bit_for_bit() {
+    // The texture builds its soil a row at a time (vectorized); every sample must be the
+    // point function's, for each level of detail (all octaves, the texture's, coarse only).
+    let w = World::new(5);
+    let m = w.micro().unwrap();
+    let xs: Vec<f64> = (0..203).map(|c| 2000.0 + 0.031 * c as f64 + 1e-4).collect();
+    let (mut h, mut g, mut tmp) = (vec![0.0; xs.len()], vec![0.0; xs.len()], Vec::new());
+    for min_wl in [0.01, 0.078, 0.2] {
+        for k in 0..5 {
+            let y = 1500.0 - 0.3 * k as f64;
+            m.soil_row(&xs, y, min_wl, &mut h, &mut g, &mut tmp);
+            for (i, &x) in xs.iter().enumerate() {
+                let (ph, pg) = m.soil(x, y, min_wl);
+                assert_eq!(h[i].to_bits(), ph.to_bits(), "height at x {x} y {y}");
+                assert_eq!(g[i].to_bits(), pg.to_bits(), "grain at x {x} y {y}");
+            }
+        }
+    }
+    assert!(
+        h.iter().any(|&v| v != 0.0),
+        "min_wl 0.2 leaves the coarsest octave"
+    );
+}
+
+#[test]
 fn micro_relief_is_a_pure_function_of_seed_and_position() {
     let a = World::new(3);
     let b = World::new(3);

@@ -259,12 +259,14 @@ impl DetailTexture {
             .for_each(|(b, ((hb, mb), ab))| {
                 let rows = hb.len() / n;
                 let r0 = b * band;
+                let xs: Vec<f64> = (0..n).map(|c| west + (c as f64 + 0.5) * m).collect();
+                let (mut soil_h, mut soil_g, mut tmp) = (vec![0f64; n], vec![0f64; n], Vec::new());
                 for r in 0..rows {
                     let y = north - (r0 + r) as f64 * m - 0.5 * m;
-                    for c in 0..n {
-                        let x = west + (c as f64 + 0.5) * m;
+                    micro.soil_row(&xs, y, min_wl, &mut soil_h, &mut soil_g, &mut tmp);
+                    for (c, &x) in xs.iter().enumerate() {
                         let i = r * n + c;
-                        let (mh, grain) = micro.soil(x, y, min_wl);
+                        let (mh, grain) = (soil_h[c], soil_g[c]);
                         mb[i] = mh as f32;
                         // The finest level first (it covers the texture at the default
                         // views), then the composite.

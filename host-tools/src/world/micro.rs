@@ -275,6 +275,40 @@ impl MicroRelief {
         (h, grain)
     }
 
+    /// [`MicroRelief::soil`] at `(xs[i], y)` for every `i`, bit for bit (the octaves in the
+    /// same order, each a vectorized row of [`Fbm::row`]): heights into `h`, albedo
+    /// multipliers into `grain`; `tmp` is scratch. All three as long as `xs`.
+    pub fn soil_row(
+        &self,
+        xs: &[f64],
+        y: f64,
+        min_wavelength_m: f64,
+        h: &mut [f64],
+        grain: &mut [f64],
+        tmp: &mut Vec<f64>,
+    ) {
+        let n = xs.len().min(h.len()).min(grain.len());
+        let (xs, h, grain) = (&xs[..n], &mut h[..n], &mut grain[..n]);
+        h.fill(0.0);
+        grain.fill(1.0);
+        tmp.clear();
+        tmp.resize(n, 0.0);
+        for (wl, amp, o) in &self.roughness {
+            if *wl < min_wavelength_m {
+                break;
+            }
+            o.row(xs, y, tmp);
+            if (*wl - GRAIN_WAVELENGTH_M).abs() < 1e-9 {
+                for (g, &v) in grain.iter_mut().zip(tmp.iter()) {
+                    *g += GRAIN_AMPLITUDE * v / amp;
+                }
+            }
+            for (s, &v) in h.iter_mut().zip(tmp.iter()) {
+                *s += v;
+            }
+        }
+    }
+
     /// Calls `f(rock)` for every clod and pebble whose base outline may reach into the
     /// rectangle `[x0, y0, x1, y1]` (metres), with radius at least `r_min_m`, in a fixed
     /// order (class, then row, then column).
