@@ -32,8 +32,9 @@ pub fn best_matcher() -> &'static str {
 /// development seed; the report prints the whole configuration.
 pub const FIX_OPTIONS: &str = "-pN (coarse peaks refined), -mnN (smallest NCC kept, 0..1), \
 -raN / -rbN (stereo: relief searched above / below the ground, metres), -srN (stereo: \
-ground range matched, metres), -uN (stereo: uniqueness, percent), -msN (stereo: support, \
-neighbours of 8), -mdN (largest depth reprojected, metres)";
+ground range matched, metres), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
+cost gap per window pixel), -msN (stereo: support, neighbours of 8), -mdN (largest depth \
+reprojected, metres)";
 
 /// The fix configuration behind a fix matcher name (`fix`, `fix-ncc`, `fix-signed`, `cnn`,
 /// each optionally followed by [`FIX_OPTIONS`]), `None` for a baseline (or a fix name with
@@ -92,7 +93,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             .find(|c: char| !c.is_ascii_alphabetic())
             .unwrap_or(part.len());
         let (key, value) = part.split_at(at);
-        if !["p", "mn", "ra", "rb", "sr", "u", "ms", "md"].contains(&key) {
+        if !["p", "mn", "ra", "rb", "sr", "u", "mg", "ms", "md"].contains(&key) {
             bail!("unknown option '{part}' of matcher '{name}' (fix options: {FIX_OPTIONS})");
         }
         let v: f32 = value.parse().ok().filter(|v: &f32| v.is_finite() && *v >= 0.0).with_context(|| {
@@ -114,6 +115,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "sr" => m.max_ground_range_m = v,
             // Out of u8 range: u8::MAX, refused below by the rig's check.
             "u" => m.uniqueness_pct = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
+            "mg" => m.min_gap_per_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "ms" => m.min_support = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "md" => cfg.range.max_depth_m = v,
             _ => bail!("unknown option '{part}' of matcher '{name}' (fix options: {FIX_OPTIONS})"),
@@ -239,7 +241,7 @@ mod tests {
             Some(false)
         );
         assert_eq!(fix_config_by_name("ncc-hp2"), None);
-        let c = fix_config_by_name("fix-p5-ra1.5-u20-ms4-mn0.4-rb1-sr30-md25").unwrap();
+        let c = fix_config_by_name("fix-p5-ra1.5-u20-ms4-mn0.4-rb1-sr30-md25-mg2").unwrap();
         assert_eq!(c.refine.mode, RefineMode::Auto);
         assert_eq!(c.refine.peaks, 5);
         assert_eq!(c.refine.min_ncc, 0.4);
@@ -248,6 +250,7 @@ mod tests {
         assert_eq!(c.stereo.matcher.max_ground_range_m, 30.0);
         assert_eq!(c.stereo.matcher.uniqueness_pct, 20);
         assert_eq!(c.stereo.matcher.min_support, 4);
+        assert_eq!(c.stereo.matcher.min_gap_per_px, 2);
         assert_eq!(c.range.max_depth_m, 25.0);
         // Options on the other bases too.
         let c = fix_config_by_name("fix-ncc-p4").unwrap();
@@ -271,6 +274,7 @@ mod tests {
             ("fix-u300", "uniqueness"),
             ("fix-u60", "uniqueness"),
             ("fix-ms9", "min_support"),
+            ("fix-mg17", "min_gap"),
             ("fix-ra5", "relief_above"),
         ] {
             let e = fix_config_checked(name).expect_err(name);
