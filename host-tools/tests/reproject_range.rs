@@ -402,3 +402,74 @@ fn bad_inputs_give_typed_errors_and_missing_views_are_reported() {
         }
     }
 }
+
+/// The relief blocks the range reprojection accumulates ([`orbfix::reproject::relief_template`])
+/// follow the world's heights: zero-mean block heights against the world's at the block
+/// centres, on a stop of the relief world.
+#[test]
+fn relief_blocks_follow_the_world_heights() {
+    use orbfix::reproject::{relief_template, relief_words, ReliefGrid};
+    let world = World::new(1);
+    let r = small_render();
+    let q = make_queries(1, 3, Condition::SameSun)[2];
+    let pose = render::ground_pose(&world, q.x_m, q.y_m, q.heading_deg);
+    let set = render_at(&world, q.x_m, q.y_m, q.heading_deg, &r);
+    let grid = GridSpec::default();
+    let depths = depth_images(&set, None).unwrap();
+    let params = r.camera_params();
+    let rg = ReliefGrid::new(grid.n, 16).unwrap();
+    let mut words = vec![0i32; relief_words(&rg)];
+    let mut scratch = vec![0u32; range_scratch_len(grid.n)];
+    let (mut out, mut mask) = (vec![0u8; grid.cells()], vec![0u8; grid.cells()]);
+    let mut acc = RangeAccumulator::new(
+        &params,
+        &pose,
+        &grid,
+        &RangeOptions::default(),
+        &mut scratch,
+        &mut mask,
+    )
+    .unwrap()
+    .with_relief(rg, &mut words)
+    .unwrap();
+    for (k, view) in View::ALL.into_iter().enumerate() {
+        let f = ImageView::new(set.views[k].as_raw(), 320, 180).unwrap();
+        let d = DepthView::new(&depths[k], 320, 180).unwrap();
+        acc.add_view(view, &f, Some(&d)).unwrap();
+    }
+    let with_relief = acc.finish(&mut out).unwrap();
+    let (plain, _) = reproject_depths(&set.views, &depths, &r, &pose, &grid).unwrap();
+    assert_eq!(out, plain.image, "the relief does not change the image");
+    let t = relief_template(&rg, &mut words, &mask, grid.n, 300).unwrap();
+    assert!(t.valid > 60, "{} of 144 blocks valid", t.valid);
+    assert!(with_relief.valid_cells > 0);
+    // World heights at the valid blocks' centres, zero-mean, against the template (Q7 m).
+    let (nb, b, o) = (rg.blocks(), rg.block_px() as f64, rg.offset_px() as f64);
+    let half = grid.n as f64 / 2.0;
+    let mut pairs = Vec::new();
+    for k in 0..nb * nb {
+        if words[nb * nb + k] == 0 {
+            continue;
+        }
+        let (i, j) = ((k % nb) as f64, (k / nb) as f64);
+        let x = pose.x_m as f64 + (o + (i + 0.5) * b - half) * grid.m_per_px as f64;
+        let y = pose.y_m as f64 - (o + (j + 0.5) * b - half) * grid.m_per_px as f64;
+        pairs.push((words[k] as f64 / 128.0, world.height_m(x, y)));
+    }
+    let m = pairs.len() as f64;
+    let (ma, mb) = (
+        pairs.iter().map(|p| p.0).sum::<f64>() / m,
+        pairs.iter().map(|p| p.1).sum::<f64>() / m,
+    );
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (a, b) in &pairs {
+        sab += (a - ma) * (b - mb);
+        saa += (a - ma) * (a - ma);
+        sbb += (b - mb) * (b - mb);
+    }
+    let corr = sab / (saa * sbb).sqrt();
+    let rms = ((saa + sbb - 2.0 * sab) / m).sqrt();
+    eprintln!("relief blocks: {} valid, correlation {corr:.3} with the world, rms {rms:.3} m, spread {:.2} m", t.valid, (sbb / m).sqrt());
+    assert!(corr > 0.9, "correlation {corr}");
+    assert!(ma.abs() < 0.01, "zero-mean template: {ma}");
+}

@@ -26,6 +26,7 @@
 //! for the default 200 x 200 grid) plus the output and mask (`n * n` bytes each; the mask
 //! holds the counts while pixels are placed). No heap, no panics, no floats per pixel.
 
+use super::relief::{ReliefCells, ReliefGrid, RELIEF_FRAC_BITS};
 use super::{classify_frame, Buffer, FrameStatus, GridSpec, ReprojectError};
 use crate::camera::{Camera, CameraParams, RoverPose, View};
 use crate::image::{ImageError, ImageView};
@@ -453,9 +454,9 @@ pub struct DepthBand<'a> {
 /// Places one row, every `stride`-th pixel from the first: the `k`-th pixel read has the
 /// ray `ray + k * step` (`step` is already `stride` columns; Q32 per depth unit: cells
 /// east, cells south, metres up). Returns the pixels accumulated. `HEIGHT` / `RANGE` switch the
-/// height-band and range tests on.
+/// height-band and range tests on, `RELIEF` the relief blocks ([`super::relief`]).
 #[inline(always)]
-fn place_row<const HEIGHT: bool, const RANGE: bool>(
+fn place_row<const HEIGHT: bool, const RANGE: bool, const RELIEF: bool>(
     frow: &[u8],
     drow: &[u16],
     stride: usize,
@@ -467,16 +468,16 @@ fn place_row<const HEIGHT: bool, const RANGE: bool>(
     // Every pixel: a plain zip (a runtime `step_by` slows the common loop down).
     if stride <= 1 {
         let it = frow.iter().zip(drow);
-        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, cells)
+        place_pixels::<HEIGHT, RANGE, RELIEF, _>(it, ray, step, lim, cells)
     } else {
         let it = frow.iter().zip(drow).step_by(stride);
-        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, cells)
+        place_pixels::<HEIGHT, RANGE, RELIEF, _>(it, ray, step, lim, cells)
     }
 }
 
 /// The per-pixel loop of [`place_row`] over the pixels read.
 #[inline(always)]
-fn place_pixels<'p, const HEIGHT: bool, const RANGE: bool, I>(
+fn place_pixels<'p, const HEIGHT: bool, const RANGE: bool, const RELIEF: bool, I>(
     pixels: I,
     ray: [i32; 3],
     step: [i32; 3],
@@ -495,12 +496,13 @@ where
     else {
         return 0;
     };
+    let mut relief = cells.relief.as_mut();
     let mut used = 0u32;
     for (&g, &z) in pixels {
         let (rx, ry, rz) = (dx, dy, dz);
         dx = dx.wrapping_add(bx);
         dy = dy.wrapping_add(by);
-        if HEIGHT {
+        if HEIGHT || RELIEF {
             dz = dz.wrapping_add(bz);
         }
         // One compare for "no depth" (0 wraps to 65535) and "too far".
@@ -508,11 +510,13 @@ where
             continue;
         }
         let zi = i64::from(z);
-        if HEIGHT {
-            let hz = zi * i64::from(rz);
-            if hz < lim.h_lo || hz > lim.h_hi {
-                continue;
-            }
+        let hz = if HEIGHT || RELIEF {
+            zi * i64::from(rz)
+        } else {
+            0
+        };
+        if HEIGHT && (hz < lim.h_lo || hz > lim.h_hi) {
+            continue;
         }
         // Positions are below 2^46 (rays < 2^30, depths < 2^16), so the cell index (the
         // high word) fits i32; negative cells wrap to huge u32 and fail the bound.
@@ -534,6 +538,14 @@ where
                 *c += 1;
                 // At most 255 samples of at most 255: the sum stays <= 65,025.
                 *sum += u16::from(g);
+                if RELIEF {
+                    if let Some(rc) = relief.as_deref_mut() {
+                        if let Some(b) = rc.grid.block_of(col, row) {
+                            // Q32 metres to Q7: heights within +-2^24 m fit i32.
+                            rc.add(b, (hz >> (POS_FRAC_BITS - RELIEF_FRAC_BITS)) as i32);
+                        }
+                    }
+                }
             }
             used += 1;
         }
@@ -547,6 +559,8 @@ where
 struct Cells<'s> {
     sums: &'s mut [u16],
     counts: &'s mut [u8],
+    /// The relief blocks, when asked for ([`RangeAccumulator::with_relief`]).
+    relief: Option<ReliefCells<'s>>,
 }
 
 /// Incremental range reprojection for callers that produce one view (or one depth image)
@@ -600,7 +614,11 @@ impl<'s> RangeAccumulator<'s> {
         sums.fill(0);
         mask.fill(0);
         Ok(Self {
-            cells: Cells { sums, counts: mask },
+            cells: Cells {
+                sums,
+                counts: mask,
+                relief: None,
+            },
             params: *params,
             pose: *pose,
             grid: *grid,
@@ -616,6 +634,22 @@ impl<'s> RangeAccumulator<'s> {
                 filled_cells: 0,
             },
         })
+    }
+
+    /// Also accumulates the relief on `grid`'s blocks ([`super::relief`]) into `words`
+    /// ([`super::relief_words`] long, cleared here): the mean height of the points of each
+    /// block, which [`super::relief_template`] reads once the accumulator is finished.
+    /// `grid` must be made for this accumulator's grid side.
+    pub fn with_relief(
+        mut self,
+        grid: ReliefGrid,
+        words: &'s mut [i32],
+    ) -> Result<Self, RangeError> {
+        if grid.offset_px() * 2 + grid.blocks() * grid.block_px() > self.grid.n {
+            return Err(RangeError::BadOption);
+        }
+        self.cells.relief = Some(ReliefCells::new(grid, words)?);
+        Ok(self)
     }
 
     /// Checks that `frame` and `depth` have the rig's size (errors as [`reproject_range`]).
@@ -879,13 +913,24 @@ impl<'s> RangeAccumulator<'s> {
         let scratch = &mut self.cells;
         // Monomorphized per limit set so the default (no height band, no range limit)
         // loop keeps its state in registers.
-        let used = match (s.height_band, s.range_lim) {
-            (false, None) => place_row::<false, false>(frow, drow, stride, ray, step, lim, scratch),
-            (true, None) => place_row::<true, false>(frow, drow, stride, ray, step, lim, scratch),
-            (false, Some(_)) => {
-                place_row::<false, true>(frow, drow, stride, ray, step, lim, scratch)
-            }
-            (true, Some(_)) => place_row::<true, true>(frow, drow, stride, ray, step, lim, scratch),
+        macro_rules! row {
+            ($h:literal, $r:literal, $l:literal) => {
+                place_row::<$h, $r, $l>(frow, drow, stride, ray, step, lim, scratch)
+            };
+        }
+        let used = match (
+            s.height_band,
+            s.range_lim.is_some(),
+            scratch.relief.is_some(),
+        ) {
+            (false, false, false) => row!(false, false, false),
+            (true, false, false) => row!(true, false, false),
+            (false, true, false) => row!(false, true, false),
+            (true, true, false) => row!(true, true, false),
+            (false, false, true) => row!(false, false, true),
+            (true, false, true) => row!(true, false, true),
+            (false, true, true) => row!(false, true, true),
+            (true, true, true) => row!(true, true, true),
         };
         self.report.pixels_read += read;
         self.report.points_used += u64::from(used);
@@ -900,7 +945,9 @@ impl<'s> RangeAccumulator<'s> {
         let n = self.grid.n;
         let cells = self.grid.cells();
         check_len(Buffer::Output, out.len(), cells)?;
-        let Cells { sums, counts: mask } = self.cells;
+        let Cells {
+            sums, counts: mask, ..
+        } = self.cells;
         let mut report = self.report;
         // Per cell: mean of the samples; the sum's slot then keeps whether the cell was
         // sampled (1) or not (0), the validity the hole filling reads.
