@@ -12,8 +12,8 @@
 //! | offset | bytes | field |
 //! |---:|---:|---|
 //! | 0 | 4 | magic `OFM1` |
-//! | 4 | 2 | version (2) |
-//! | 6 | 2 | reserved, 0 |
+//! | 4 | 2 | version (3; version 2 files, without relief, are still read) |
+//! | 6 | 2 | relief block side, pixels (0: no relief plane; else the window grid step) |
 //! | 8 | 4 | header bytes ([`HEADER_BYTES`] = 64) |
 //! | 12 | 4 | map width, pixels |
 //! | 16 | 4 | map height, pixels |
@@ -34,7 +34,15 @@
 //! | 64 + w h | w h | refinement plane, row-major ([`write_refine_plane`]) |
 //! | | 0-3 | zero padding to a multiple of 4 |
 //! | | cols rows 2056 | window records, row-major over the grid (top-left of window `(c, r)` at map pixel `(c step, r step)`) |
+//! | | rc rr 2 | relief plane, if any: `i16` heights, Q4 metres (1/16 m) above any datum, row-major, row 0 north ([`ReliefPlane`]) |
 //! | end - 4 | 4 | CRC-32 (IEEE) of every preceding byte |
+//!
+//! The relief plane is the elevation model on blocks of `b` pixels (`b`: the window step):
+//! block `(i, j)` covers map pixels `o + i b .. o + (i + 1) b` east and the same south, with
+//! `o = (n - nb b) / 2` and `nb = n / b` blocks per window side (`n`: the window side), so
+//! the blocks of the window at grid cell `(c, r)` are `(c .. c + nb, r .. r + nb)` and the
+//! plane has `rc = cols + nb - 1` columns and `rr = rows + nb - 1` rows. The fix matches it
+//! against the relief its range reprojection saw ([`crate::reproject::ReliefGrid`]).
 //!
 //! [`MapProduct::parse`] checks the CRC first (a damaged file is reported as damaged, not as
 //! whatever its damaged header claims), then every field and that the sizes agree.
@@ -51,8 +59,10 @@ use core::fmt;
 
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"OFM1";
-/// Format version this core reads.
-pub const VERSION: u16 = 2;
+/// Format version this core writes (it reads this one and version 2, which has no relief).
+pub const VERSION: u16 = 3;
+/// Fractional bits of the relief plane's heights: Q4 metres.
+pub const RELIEF_PLANE_FRAC_BITS: u32 = 4;
 /// Bytes of the header.
 pub const HEADER_BYTES: usize = 64;
 /// Largest map side the core accepts, pixels (16,384 px: 4.1 km at 0.25 m/px).
@@ -191,6 +201,10 @@ pub struct MapProductMeta {
     pub sun_deg: Option<(f32, f32)>,
     /// How the refinement plane was made.
     pub plane: RefinePlane,
+    /// Block side of the relief plane, pixels: 0 for none, else the window step, a power
+    /// of two from 2 to [`crate::reproject::MAX_BLOCK_PX`] with at least two blocks per
+    /// window side.
+    pub relief_block_px: usize,
 }
 
 /// Offsets and sizes of a map product's parts.
@@ -207,17 +221,50 @@ pub struct MapProductLayout {
     pub plane_at: usize,
     /// Offset of the first window record (4-byte aligned).
     pub records_at: usize,
+    /// Offset of the relief plane (right after the records; the CRC's offset when there is
+    /// none).
+    pub relief_at: usize,
+    /// Relief plane columns and rows (0 when there is none).
+    pub relief_cols: usize,
+    /// Relief plane rows.
+    pub relief_rows: usize,
+    /// Relief blocks per window side (0 when there is none).
+    pub relief_blocks: usize,
     /// Bytes of the whole file, CRC included.
     pub total: usize,
 }
 
 impl MapProductLayout {
-    /// The layout of a `width x height` map with `window_px` windows every `step_px`.
+    /// The layout of a `width x height` map with `window_px` windows every `step_px`, no
+    /// relief plane.
     pub fn new(
         width: usize,
         height: usize,
         window_px: usize,
         step_px: usize,
+    ) -> Result<Self, MapProductError> {
+        Self::with_relief(width, height, window_px, step_px, 0)
+    }
+
+    /// The layout of the product `meta` describes.
+    pub fn of(meta: &MapProductMeta) -> Result<Self, MapProductError> {
+        Self::with_relief(
+            meta.width,
+            meta.height,
+            meta.window_px,
+            meta.step_px,
+            meta.relief_block_px,
+        )
+    }
+
+    /// [`MapProductLayout::new`] with a relief plane of `relief_block_px` blocks (0: none;
+    /// else the window step, see [`MapProductMeta::relief_block_px`]).
+    pub fn with_relief(
+        width: usize,
+        height: usize,
+        window_px: usize,
+        step_px: usize,
+        relief_block_px: usize,
     ) -> Result<Self, MapProductError> {
         let bad = |field| MapProductError::BadField { field };
         if width == 0 || width > MAX_SIDE_PX {
@@ -242,8 +289,21 @@ impl MapProductLayout {
         let records = (cols * rows)
             .checked_mul(WINDOW_RECORD_BYTES)
             .ok_or(bad("window grid"))?;
-        let total = records_at
-            .checked_add(records)
+        let relief_at = records_at.checked_add(records).ok_or(bad("window grid"))?;
+        let (relief_blocks, relief_cols, relief_rows) = if relief_block_px == 0 {
+            (0, 0, 0)
+        } else {
+            if relief_block_px != step_px
+                || crate::reproject::ReliefGrid::new(window_px, relief_block_px).is_err()
+            {
+                return Err(bad("relief block side"));
+            }
+            let nb = window_px / relief_block_px;
+            (nb, cols + nb - 1, rows + nb - 1)
+        };
+        let total = (relief_cols * relief_rows)
+            .checked_mul(2)
+            .and_then(|r| r.checked_add(relief_at))
             .and_then(|t| t.checked_add(4))
             .ok_or(bad("window grid"))?;
         Ok(Self {
@@ -252,6 +312,10 @@ impl MapProductLayout {
             pixels_at: HEADER_BYTES,
             plane_at,
             records_at,
+            relief_at,
+            relief_cols,
+            relief_rows,
+            relief_blocks,
             total,
         })
     }
@@ -270,6 +334,63 @@ pub struct MapProduct<'a> {
     map: ImageView<'a>,
     plane: ImageView<'a>,
     records: &'a [u8],
+    relief: Option<ReliefPlane<'a>>,
+}
+
+/// The relief plane of a map product ([`MapProduct::relief`]): `i16` heights, Q4 metres
+/// ([`RELIEF_PLANE_FRAC_BITS`]), on the window grid's blocks (module docs).
+#[derive(Clone, Copy, Debug)]
+pub struct ReliefPlane<'a> {
+    bytes: &'a [u8],
+    cols: usize,
+    rows: usize,
+    blocks: usize,
+}
+
+impl<'a> ReliefPlane<'a> {
+    /// Columns (blocks east).
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    /// Rows (blocks south).
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Blocks per window side.
+    pub fn blocks(&self) -> usize {
+        self.blocks
+    }
+
+    /// Height of block `(col, row)`, Q4 metres, or `None` outside the plane.
+    #[inline(always)]
+    pub fn get(&self, col: usize, row: usize) -> Option<i16> {
+        if col >= self.cols {
+            return None;
+        }
+        let at = 2 * (row * self.cols + col);
+        match self.bytes.get(at..at + 2) {
+            Some(&[a, b]) => Some(i16::from_le_bytes([a, b])),
+            _ => None,
+        }
+    }
+
+    /// Height of block `k` in row-major order (`row cols + col`), Q4 metres, or `None`
+    /// past the end.
+    #[inline(always)]
+    pub fn at(&self, k: usize) -> Option<i16> {
+        match self.bytes.get(2 * k..2 * k + 2) {
+            Some(&[a, b]) => Some(i16::from_le_bytes([a, b])),
+            _ => None,
+        }
+    }
+
+    /// Row `row`'s bytes (`2 cols`, little-endian `i16`).
+    pub fn row_bytes(&self, row: usize) -> Option<&'a [u8]> {
+        self.bytes
+            .get(2 * row * self.cols..2 * (row + 1) * self.cols)
+    }
 }
 
 /// Whether [`MapProduct::parse`] recomputes the CRC.
@@ -320,8 +441,14 @@ impl<'a> MapProduct<'a> {
             return Err(MapProductError::BadMagic);
         }
         let version = u16_at(bytes, 4);
-        if version != VERSION {
+        if version != VERSION && version != 2 {
             return Err(MapProductError::UnsupportedVersion(version));
+        }
+        let relief_block_px = u16_at(bytes, 6) as usize;
+        if version == 2 && relief_block_px != 0 {
+            return Err(MapProductError::BadField {
+                field: "relief block side",
+            });
         }
         let bad = |field| MapProductError::BadField { field };
         if u32_at(bytes, 8) as usize != HEADER_BYTES {
@@ -340,7 +467,8 @@ impl<'a> MapProduct<'a> {
         let height = u32_at(bytes, 16) as usize;
         let window_px = u32_at(bytes, 32) as usize;
         let step_px = u32_at(bytes, 36) as usize;
-        let layout = MapProductLayout::new(width, height, window_px, step_px)?;
+        let layout =
+            MapProductLayout::with_relief(width, height, window_px, step_px, relief_block_px)?;
         if u32_at(bytes, 40) as usize != layout.cols {
             return Err(bad("window columns"));
         }
@@ -379,7 +507,22 @@ impl<'a> MapProduct<'a> {
                 expected: layout.total,
                 got: bytes.len(),
             })?;
-        let records = bytes.get(layout.records_at..layout.total - 4).ok_or(
+        let relief = if layout.relief_blocks > 0 {
+            Some(ReliefPlane {
+                bytes: bytes.get(layout.relief_at..layout.total - 4).ok_or(
+                    MapProductError::LengthMismatch {
+                        expected: layout.total,
+                        got: bytes.len(),
+                    },
+                )?,
+                cols: layout.relief_cols,
+                rows: layout.relief_rows,
+                blocks: layout.relief_blocks,
+            })
+        } else {
+            None
+        };
+        let records = bytes.get(layout.records_at..layout.relief_at).ok_or(
             MapProductError::LengthMismatch {
                 expected: layout.total,
                 got: bytes.len(),
@@ -397,11 +540,13 @@ impl<'a> MapProduct<'a> {
                 weights_crc: u32_at(bytes, 48),
                 sun_deg,
                 plane: plane_settings,
+                relief_block_px,
             },
             layout,
             map,
             plane,
             records,
+            relief,
         })
     }
 
@@ -430,6 +575,11 @@ impl<'a> MapProduct<'a> {
     pub fn records(&self) -> &'a [u8] {
         self.records
     }
+
+    /// The relief plane, if the product has one.
+    pub fn relief(&self) -> Option<ReliefPlane<'a>> {
+        self.relief
+    }
 }
 
 /// Writes the header of a map product with `meta` into `out[..HEADER_BYTES]` and returns
@@ -439,7 +589,7 @@ pub fn write_header(
     meta: &MapProductMeta,
     out: &mut [u8],
 ) -> Result<MapProductLayout, MapProductError> {
-    let layout = MapProductLayout::new(meta.width, meta.height, meta.window_px, meta.step_px)?;
+    let layout = MapProductLayout::of(meta)?;
     let g = meta.geo;
     if !(g.origin_x_m().abs() <= MAX_ORIGIN_M && g.origin_y_m().abs() <= MAX_ORIGIN_M) {
         return Err(MapProductError::BadField { field: "origin" });
@@ -473,6 +623,9 @@ pub fn write_header(
     }
     if let Some(v) = head.get_mut(4..6) {
         v.copy_from_slice(&VERSION.to_le_bytes());
+    }
+    if let Some(v) = head.get_mut(6..8) {
+        v.copy_from_slice(&(meta.relief_block_px as u16).to_le_bytes());
     }
     for (at, w) in words {
         if let Some(d) = head.get_mut(at..at + 4) {
@@ -589,6 +742,7 @@ mod tests {
             weights_crc: 0xdead_beef,
             sun_deg: Some((30.0, 135.0)),
             plane: RefinePlane::new(8, true).unwrap(),
+            relief_block_px: 0,
         };
         let l = write_header(&meta, buf).unwrap();
         for (i, p) in buf[l.pixels_at..l.pixels_at + w * h].iter_mut().enumerate() {
@@ -655,6 +809,63 @@ mod tests {
                 field: "window columns"
             }
         );
+    }
+
+    #[test]
+    fn relief_plane_round_trip_and_version_2() {
+        // A 12 x 12 map, 8 px windows every 2 px: 3 x 3 windows, 4 blocks per window side,
+        // a 6 x 6 relief plane.
+        let meta = MapProductMeta {
+            geo: GeoRef::new(100.0, 200.0, 0.25).unwrap(),
+            width: 12,
+            height: 12,
+            window_px: 8,
+            step_px: 2,
+            weights_crc: 1,
+            sun_deg: None,
+            plane: RefinePlane::new(8, true).unwrap(),
+            relief_block_px: 2,
+        };
+        let l = MapProductLayout::of(&meta).unwrap();
+        assert_eq!(
+            (l.cols, l.relief_cols, l.relief_rows, l.relief_blocks),
+            (3, 6, 6, 4)
+        );
+        assert_eq!(l.total, l.relief_at + 72 + 4);
+        let mut buf = [0u8; 32 * 1024];
+        write_header(&meta, &mut buf).unwrap();
+        for k in 0..36 {
+            let v = (k as i16 - 18) * 100;
+            buf[l.relief_at + 2 * k..l.relief_at + 2 * k + 2].copy_from_slice(&v.to_le_bytes());
+        }
+        seal(&mut buf[..l.total]).unwrap();
+        let p = MapProduct::parse(&buf[..l.total], CrcCheck::Verify).unwrap();
+        assert_eq!(p.meta().relief_block_px, 2);
+        let r = p.relief().unwrap();
+        assert_eq!((r.cols(), r.rows(), r.blocks()), (6, 6, 4));
+        assert_eq!(r.get(0, 0), Some(-1800));
+        assert_eq!(r.get(5, 5), Some(1700));
+        assert_eq!(r.get(6, 0), None);
+        assert_eq!(r.get(0, 6), None);
+        // A block side other than the step, or not a power of two, is refused.
+        for bad in [4usize, 3] {
+            let m = MapProductMeta {
+                relief_block_px: bad,
+                step_px: 3,
+                ..meta
+            };
+            assert!(MapProductLayout::of(&m).is_err());
+        }
+        // Version 2 (no relief) is still read; version 2 with a relief field is refused.
+        let mut b2 = [0u8; 4096];
+        let total = build(&mut b2, 9, 9, 9, 1);
+        b2[4] = 2;
+        seal(&mut b2[..total]).unwrap();
+        let p = MapProduct::parse(&b2[..total], CrcCheck::Verify).unwrap();
+        assert!(p.relief().is_none());
+        b2[6] = 1;
+        seal(&mut b2[..total]).unwrap();
+        assert!(MapProduct::parse(&b2[..total], CrcCheck::Verify).is_err());
     }
 
     #[test]

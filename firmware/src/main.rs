@@ -78,6 +78,7 @@ static mut WORK: [u32; vectors::WORK_WORDS] = [0; vectors::WORK_WORDS];
 static mut RESPONSE: [i32; vectors::RESPONSE] = [0; vectors::RESPONSE];
 static mut REFINE_FLOATS: [f32; vectors::REFINE_FLOATS] = [0.0; vectors::REFINE_FLOATS];
 static mut NN_EMBEDDING: [i8; EMBED_LEN] = [0; EMBED_LEN];
+static mut RELIEF: [i32; vectors::RELIEF_WORDS] = [0; vectors::RELIEF_WORDS];
 
 fn depths() -> Option<&'static [u16]> {
     // Safety: `u16` is valid for every bit pattern; `align_to` only yields the aligned
@@ -154,6 +155,7 @@ fn main() -> ! {
             response: &mut *addr_of_mut!(RESPONSE),
             refine_floats: &mut *addr_of_mut!(REFINE_FLOATS),
             nn_embedding: &mut *addr_of_mut!(NN_EMBEDDING),
+            relief: &mut *addr_of_mut!(RELIEF),
         }
     };
     let mut clock = clock::StageTicks::start();

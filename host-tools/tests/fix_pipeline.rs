@@ -248,3 +248,57 @@ fn bad_input_is_an_error_or_no_data() {
     assert!(MapProduct::parse(&s.product, CrcCheck::Verify).is_ok());
     assert_eq!(s.map.width, 480);
 }
+
+/// The relief stage: with a product that carries the world's elevation blocks it runs on the
+/// depth path (every window scored over the blocks the rover saw) and the fix still finds the
+/// rover; without a relief plane, with weight 0 or on flat ground it does not run, and then
+/// the fix is the CNN's alone.
+#[test]
+fn relief_stage_runs_where_it_has_heights() {
+    use orbfix_host::fix::build_map_product_relief;
+    let s = stop(Reprojection::Range);
+    let world = World::new(4);
+    let heights = |x: f64, y: f64| world.height_m(x, y);
+    let cfg = FixConfig::default();
+    assert!(cfg.relief.weight > 0.0);
+    let opts = MapProductOptions::for_fix(&cfg, None).unwrap();
+    assert_eq!(opts.relief_block_px, opts.step_px);
+    let product = build_map_product_relief(
+        &s.map,
+        orbfix::nn::model::SHIPPED_WEIGHTS,
+        &opts,
+        Some(&heights),
+    )
+    .unwrap();
+    let p = MapProduct::parse(&product, CrcCheck::Verify).unwrap();
+    let plane = p.relief().expect("a relief plane");
+    assert_eq!((plane.cols(), plane.blocks()), (18 + 11, 12));
+    // No heights, no relief plane: a clear error.
+    assert!(
+        build_map_product_relief(&s.map, orbfix::nn::model::SHIPPED_WEIGHTS, &opts, None).is_err()
+    );
+    let with = Stop {
+        product,
+        ..stop(Reprojection::Range)
+    };
+    let r = run(&with, cfg).report;
+    assert!(r.relief_blocks >= 24, "{} blocks", r.relief_blocks);
+    assert_eq!(r.ops.relief_macs, 18 * 18 * 3 * r.relief_blocks as u64);
+    assert_eq!(r.status, FixStatus::Ok, "{r:?}");
+    assert!(error(&with, &r) < 0.5, "fix error {} m", error(&with, &r));
+    // Off: weight 0 on the same product, or a product without the plane: no relief, and
+    // the same fix either way.
+    let mut off = FixConfig::default();
+    off.relief.weight = 0.0;
+    let a = run(&with, off).report;
+    let b = run(&s, FixConfig::default()).report;
+    assert_eq!((a.relief_blocks, b.relief_blocks), (0, 0));
+    assert_eq!(a.ops.relief_macs, 0);
+    assert_eq!((a.x_m, a.y_m, a.confidence), (b.x_m, b.y_m, b.confidence));
+    // Flat ground has no heights: the stage does not run.
+    let flat = Stop {
+        product: with.product.clone(),
+        ..stop(Reprojection::Lut)
+    };
+    assert_eq!(run(&flat, FixConfig::default()).report.relief_blocks, 0);
+}

@@ -142,6 +142,8 @@ pub struct FixConfig {
     pub self_check: SelfCheck,
     /// The fix's own stereo stage (used with [`super::Depth::Stereo`]).
     pub stereo: StereoConfig,
+    /// The relief stage (with depth, and a map product with a relief plane).
+    pub relief: super::relief::ReliefConfig,
 }
 
 impl Default for FixConfig {
@@ -186,6 +188,7 @@ impl Default for FixConfig {
                 redundant_run: false,
             },
             stereo: StereoConfig::default(),
+            relief: super::relief::ReliefConfig::default(),
         }
     }
 }
@@ -235,6 +238,13 @@ impl FixConfig {
             && (0.0..=1.0).contains(&self.accept_confidence_stereo))
         {
             return bad("accept_confidence_stereo");
+        }
+        let rl = &self.relief;
+        if !(rl.weight.is_finite() && (0.0..=4.0).contains(&rl.weight)) {
+            return bad("relief.weight");
+        }
+        if rl.min_fill_permille > 1000 {
+            return bad("relief.min_fill_permille");
         }
         let ok_bound = |v: f32| v.is_finite() && v > 0.0;
         if !(ok_bound(self.bounds.ncc_m) && ok_bound(self.bounds.cnn_m)) {

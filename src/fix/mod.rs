@@ -38,6 +38,7 @@ mod digest;
 pub mod heading;
 pub mod protocol;
 pub mod refine;
+pub mod relief;
 mod report;
 mod scratch;
 mod stage;
@@ -68,7 +69,7 @@ use crate::nn::model::{embedding_macs, SiameseNet, EMBED_LEN};
 use crate::nn::weights::crc32;
 use crate::nn::NnError;
 use crate::reproject::{
-    classify_frame, reproject_range, ApplyReport, Cell, DepthView, FrameStatus, Lut, Tap,
+    classify_frame, reproject_range_relief, ApplyReport, Cell, DepthView, FrameStatus, Lut, Tap,
 };
 
 /// How the top-down image gets its geometry.
@@ -143,6 +144,7 @@ pub fn run<C: StageClock>(
         stereo_cost_updates: a.stereo_cost_updates.saturating_add(b.stereo_cost_updates),
         stereo_px: a.stereo_px.saturating_add(b.stereo_px),
         stereo_depth_px: a.stereo_depth_px.saturating_add(b.stereo_depth_px),
+        relief_macs: a.relief_macs.saturating_add(b.relief_macs),
     };
     if !agree {
         second = FixReport::no_data(inputs.pose.x_m, inputs.pose.y_m, second.reprojection);
@@ -201,6 +203,7 @@ fn run_once<C: StageClock>(
         response,
         refine_floats,
         nn_embedding,
+        relief,
     } = scratch;
     let too_small = |buffer| FixError::ScratchTooSmall { buffer };
     let top = top.get_mut(..sizes.top).ok_or(too_small("top"))?;
@@ -224,13 +227,29 @@ fn run_once<C: StageClock>(
                     response: &mut *response,
                     refine_floats: &mut **refine_floats,
                     nn_embedding: &mut **nn_embedding,
+                    relief: &mut **relief,
                 },
             )
         };
     }
 
     // 1. Reprojection (the stage on its own: [`top_down::top_down`]).
-    let (reprojection, mut ops) = top_down::top_down(inputs, cfg, work, top, mask, clock)?;
+    // The relief blocks, with depth and a product that has a relief plane.
+    let relief_grid = match (&inputs.depth, product.relief()) {
+        (Depth::Flat, _) | (_, None) => None,
+        _ => scratch::relief_grid(cfg, &meta)?,
+    };
+    let relief_acc = match relief_grid {
+        Some(g) => Some((
+            g,
+            relief
+                .get_mut(..sizes.relief_words)
+                .ok_or(too_small("relief"))?,
+        )),
+        None => None,
+    };
+    let (reprojection, mut ops) =
+        top_down::top_down_relief(inputs, cfg, work, top, mask, relief_acc, clock)?;
     after!(Stage::Reproject);
     let mut report = FixReport::no_data(inputs.pose.x_m, inputs.pose.y_m, reprojection);
     let permille = reprojection
@@ -284,7 +303,39 @@ fn run_once<C: StageClock>(
     after!(Stage::NnMatch);
     ops.match_elements = (windows * EMBED_LEN) as u64;
     let layout = *product.layout();
-    let response = &response[..windows.min(response.len())];
+    let live = windows.min(response.len());
+    let response = &mut response[..live];
+
+    // 3b. Relief: the depth's heights against the map's elevation blocks, into the response.
+    if let (Some(g), Some(plane)) = (relief_grid, product.relief()) {
+        clock.begin(Stage::Relief);
+        let words = relief.get_mut(..sizes.relief_words).unwrap_or_default();
+        let t = crate::reproject::relief_template(
+            &g,
+            words,
+            mask,
+            n,
+            u32::from(cfg.relief.min_fill_permille),
+        )?;
+        if t.valid >= usize::from(cfg.relief.min_blocks) && t.energy > 0 {
+            let v = relief::compact(&t, words, plane.cols());
+            let (vals, offs) = words
+                .split_at_checked(g.blocks() * g.blocks())
+                .unwrap_or_default();
+            ops.relief_macs = relief::add_scores(
+                &plane,
+                vals.get(..v).unwrap_or_default(),
+                offs.get(..v).unwrap_or_default(),
+                layout.cols,
+                layout.rows,
+                cfg.relief.weight_q8(),
+                response,
+            );
+            report.relief_blocks = v as u32;
+        }
+        clock.end(Stage::Relief);
+    }
+    let response = &*response;
 
     // 4. Peaks, refinement, confidence.
     clock.begin(Stage::Refine);
@@ -445,8 +496,9 @@ fn reproject_depth(
     work: &mut [u32],
     top: &mut [u8],
     mask: &mut [u8],
+    relief: Option<(crate::reproject::ReliefGrid, &mut [i32])>,
 ) -> Result<crate::reproject::RangeReport, FixError> {
-    Ok(reproject_range(
+    Ok(reproject_range_relief(
         &inputs.frames,
         depths,
         &inputs.params,
@@ -456,6 +508,7 @@ fn reproject_depth(
         work,
         top,
         mask,
+        relief,
     )?)
 }
 

@@ -106,6 +106,8 @@ pub struct StageOps {
     pub stereo_px: u64,
     /// Stereo: working-size pixels that got a depth.
     pub stereo_depth_px: u64,
+    /// Relief: multiply-accumulates of the correlations (windows x 3 x blocks).
+    pub relief_macs: u64,
 }
 
 /// The result of a fix.
@@ -139,6 +141,9 @@ pub struct FixReport {
     pub reprojection: ReprojectionSummary,
     /// Valid share of the top-down image, per mille.
     pub coverage_permille: u32,
+    /// Blocks of the rover's relief matched against the map's by the relief stage (0: the
+    /// stage did not run: off, flat ground, no relief plane, or too few blocks).
+    pub relief_blocks: u32,
     /// Work per stage.
     pub ops: StageOps,
 }
@@ -161,6 +166,7 @@ impl FixReport {
             candidates: heapless::Vec::new(),
             reprojection,
             coverage_permille: 0,
+            relief_blocks: 0,
             ops: StageOps::default(),
         }
     }

@@ -5,6 +5,7 @@ use crate::map_product::MapProductMeta;
 use crate::matcher::prep::highpass_buffer_len;
 use crate::nn::input::INPUT_LEN;
 use crate::nn::model::{Arena, EMBED_LEN};
+use crate::reproject::{relief_words, ReliefGrid};
 
 /// `u32` words of the work area the CNN stage uses: its [`Arena`], then its int8 input
 /// (the work area is free between the reprojection and the refinement).
@@ -55,13 +56,21 @@ pub struct FixBufferSizes {
     pub response: usize,
     /// NCC responses of the refinement levels, `f32`.
     pub refine_floats: usize,
+    /// The relief stage's blocks, `i32` words ([`crate::reproject::relief_words`]; 0 when
+    /// the configuration or the map product has no relief).
+    pub relief_words: usize,
 }
 
 impl FixBufferSizes {
     /// Bytes of all of them together (the CNN's embedding, [`EMBED_LEN`] bytes, not
     /// included: see [`FixScratch`]).
     pub fn bytes(&self) -> usize {
-        self.top + self.mask + 4 * self.work_words + 4 * self.response + 4 * self.refine_floats
+        self.top
+            + self.mask
+            + 4 * self.work_words
+            + 4 * self.response
+            + 4 * self.refine_floats
+            + 4 * self.relief_words
     }
 }
 
@@ -164,7 +173,21 @@ pub fn fix_buffer_sizes(
             .max(NN_WORK_WORDS),
         response: cols * rows,
         refine_floats: floats,
+        relief_words: relief_grid(cfg, meta)?.map_or(0, |g| relief_words(&g)),
     })
+}
+
+/// The relief blocks of the fix under `cfg` with the product `meta`: `None` when the
+/// relief stage is off or the product has no relief plane.
+pub fn relief_grid(cfg: &FixConfig, meta: &MapProductMeta) -> Result<Option<ReliefGrid>, FixError> {
+    if cfg.relief.weight <= 0.0 || meta.relief_block_px == 0 {
+        return Ok(None);
+    }
+    ReliefGrid::new(cfg.grid.n, meta.relief_block_px)
+        .map(Some)
+        .map_err(|_| FixError::MapMismatch {
+            what: "its relief blocks do not fit the top-down grid",
+        })
 }
 
 /// Caller-provided working memory of one fix (static buffers on the target, `Vec`s on
@@ -182,4 +205,7 @@ pub struct FixScratch<'a> {
     pub refine_floats: &'a mut [f32],
     /// The top-down image's embedding.
     pub nn_embedding: &'a mut [i8; EMBED_LEN],
+    /// The relief stage's blocks ([`FixBufferSizes::relief_words`]; may be empty when that
+    /// is 0).
+    pub relief: &'a mut [i32],
 }

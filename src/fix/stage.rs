@@ -17,18 +17,22 @@ pub enum Stage {
     NnEmbed,
     /// Q15 cosines of the embedding against every map-window record: the coarse response.
     NnMatch,
+    /// The relief the depth saw against the map's relief plane at every window, added to
+    /// the coarse response (with depth and a relief plane only).
+    Relief,
     /// Masked, high-passed NCC around the best coarse peaks, sub-pixel peak, confidence.
     Refine,
 }
 
 impl Stage {
     /// Every stage, in run order.
-    pub const ALL: [Stage; 6] = [
+    pub const ALL: [Stage; 7] = [
         Stage::LutBuild,
         Stage::Stereo,
         Stage::Reproject,
         Stage::NnEmbed,
         Stage::NnMatch,
+        Stage::Relief,
         Stage::Refine,
     ];
 
@@ -40,6 +44,7 @@ impl Stage {
             Stage::Reproject => "reproject",
             Stage::NnEmbed => "nn_embed",
             Stage::NnMatch => "nn_match",
+            Stage::Relief => "relief",
             Stage::Refine => "refine",
         }
     }

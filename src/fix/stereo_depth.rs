@@ -22,7 +22,7 @@ use super::{FixConfig, FixError, FixInputs, ReprojectionSummary, Stage, StageClo
 use crate::camera::View;
 use crate::image::ImageView;
 use crate::reproject::{
-    classify_frame, range_scratch_len, DepthBand, FrameStatus, RangeAccumulator,
+    classify_frame, range_scratch_len, DepthBand, FrameStatus, RangeAccumulator, ReliefGrid,
 };
 use crate::stereo::{stereo_buffer_bound, StereoError, StereoParams, StereoRig};
 
@@ -132,6 +132,7 @@ pub(super) fn reproject_stereo<C: StageClock>(
     work: &mut [u32],
     top: &mut [u8],
     mask: &mut [u8],
+    relief: Option<(ReliefGrid, &mut [i32])>,
     clock: &mut C,
     ops: &mut StageOps,
 ) -> Result<ReprojectionSummary, FixError> {
@@ -183,7 +184,11 @@ pub(super) fn reproject_stereo<C: StageClock>(
         &cfg.range,
         acc_w,
         mask,
-    );
+    )
+    .and_then(|a| match relief {
+        Some((g, words)) => a.with_relief(g, words),
+        None => Ok(a),
+    });
     clock.end(Stage::Reproject);
     let mut acc = acc?;
     let k = usize::from(sc.matcher.downsample);

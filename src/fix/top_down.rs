@@ -9,7 +9,7 @@ use super::{
     reproject_depth, reproject_flat, stereo_depth, Depth, FixConfig, FixError, FixInputs,
     ReprojectionSummary, Stage, StageClock, StageOps, LUT_BAND_ROWS,
 };
-use crate::reproject::{range_scratch_len, Cell, Tap};
+use crate::reproject::{range_scratch_len, Cell, ReliefGrid, Tap};
 
 /// Buffer sizes of [`top_down`] for a configuration: the top-down image and mask (bytes)
 /// and the work area (`u32` words) for each depth source.
@@ -69,6 +69,20 @@ pub fn top_down<C: StageClock>(
     mask: &mut [u8],
     clock: &mut C,
 ) -> Result<(ReprojectionSummary, StageOps), FixError> {
+    top_down_relief(inputs, cfg, work, top, mask, None, clock)
+}
+
+/// [`top_down`] that also accumulates the relief the depth gives on `relief`'s grid into
+/// its words ([`crate::reproject::RangeAccumulator::with_relief`]; flat ground adds none).
+pub fn top_down_relief<C: StageClock>(
+    inputs: &FixInputs<'_>,
+    cfg: &FixConfig,
+    work: &mut [u32],
+    top: &mut [u8],
+    mask: &mut [u8],
+    relief: Option<(ReliefGrid, &mut [i32])>,
+    clock: &mut C,
+) -> Result<(ReprojectionSummary, StageOps), FixError> {
     let sizes = top_down_buffer_sizes(cfg)?;
     let too_small = |buffer| FixError::ScratchTooSmall { buffer };
     let top = top.get_mut(..sizes.top).ok_or(too_small("top"))?;
@@ -81,7 +95,7 @@ pub fn top_down<C: StageClock>(
         Depth::Flat => reproject_flat(inputs, cfg, work, top, mask, clock, &mut ops)?,
         Depth::Images(depths) => {
             clock.begin(Stage::Reproject);
-            let r = reproject_depth(inputs, &depths, cfg, work, top, mask)?;
+            let r = reproject_depth(inputs, &depths, cfg, work, top, mask, relief)?;
             clock.end(Stage::Reproject);
             ops.reproject_px = r.pixels_read;
             ReprojectionSummary {
@@ -91,9 +105,9 @@ pub fn top_down<C: StageClock>(
                 stereo: None,
             }
         }
-        Depth::Stereo(rights) => {
-            stereo_depth::reproject_stereo(inputs, &rights, cfg, work, top, mask, clock, &mut ops)?
-        }
+        Depth::Stereo(rights) => stereo_depth::reproject_stereo(
+            inputs, &rights, cfg, work, top, mask, relief, clock, &mut ops,
+        )?,
     };
     Ok((summary, ops))
 }

@@ -36,9 +36,9 @@ mod rings;
 pub use apply::{classify_frame, ApplyReport, FrameStatus, BLACK_LEVEL, SATURATED_LEVEL};
 pub use lut::{BuildStats, Lut};
 pub use range::{
-    range_scratch_bytes, range_scratch_len, reproject_range, DepthBand, DepthExpander, DepthView,
-    RangeAccumulator, RangeError, RangeOptions, RangeReport, DEFAULT_DEPTH_SCALE_M,
-    DEFAULT_FILL_MIN, POS_FRAC_BITS,
+    range_scratch_bytes, range_scratch_len, reproject_range, reproject_range_relief, DepthBand,
+    DepthExpander, DepthView, RangeAccumulator, RangeError, RangeOptions, RangeReport,
+    DEFAULT_DEPTH_SCALE_M, DEFAULT_FILL_MIN, POS_FRAC_BITS,
 };
 pub use relief::{
     relief_template, relief_words, ReliefGrid, ReliefTemplate, MAX_BLOCK_PX, RELIEF_FRAC_BITS,

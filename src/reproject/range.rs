@@ -1033,7 +1033,30 @@ pub fn reproject_range(
     out: &mut [u8],
     mask: &mut [u8],
 ) -> Result<RangeReport, RangeError> {
+    reproject_range_relief(
+        frames, depths, params, pose, grid, opts, scratch, out, mask, None,
+    )
+}
+
+/// [`reproject_range`] that also accumulates the relief on `relief`'s grid into its words
+/// ([`RangeAccumulator::with_relief`]; `None`: as [`reproject_range`]).
+#[allow(clippy::too_many_arguments)]
+pub fn reproject_range_relief(
+    frames: &[Option<ImageView<'_>>; 4],
+    depths: &[Option<DepthView<'_>>; 4],
+    params: &CameraParams,
+    pose: &RoverPose,
+    grid: &GridSpec,
+    opts: &RangeOptions,
+    scratch: &mut [u32],
+    out: &mut [u8],
+    mask: &mut [u8],
+    relief: Option<(ReliefGrid, &mut [i32])>,
+) -> Result<RangeReport, RangeError> {
     let mut acc = RangeAccumulator::new(params, pose, grid, opts, scratch, mask)?;
+    if let Some((g, words)) = relief {
+        acc = acc.with_relief(g, words)?;
+    }
     // Checked here too (not only in `finish`), so that no pixel is read for nothing.
     check_len(Buffer::Output, out.len(), grid.cells())?;
     for ((f, d), view) in frames.iter().zip(depths).zip(View::ALL) {

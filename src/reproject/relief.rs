@@ -104,7 +104,9 @@ impl<'s> ReliefCells<'s> {
             });
         }
         words.fill(0);
-        let (sums, counts) = words.split_at_mut(nb2);
+        let (sums, counts) = words
+            .split_at_mut_checked(nb2)
+            .ok_or(RangeError::BadOption)?;
         Ok(Self { grid, sums, counts })
     }
 
@@ -155,11 +157,16 @@ pub fn relief_template(
     if mask.len() != n * n || grid.offset + nb * b > n {
         return Err(RangeError::BadOption);
     }
-    let (sums, counts) = words.split_at_mut(nb2);
+    let (sums, counts) = words
+        .split_at_mut_checked(nb2)
+        .ok_or(RangeError::BadOption)?;
     let need = (min_fill_permille.min(1000) as usize * b * b).div_ceil(1000);
     let (mut valid, mut total) = (0usize, 0i64);
     for (k, (s, c)) in sums.iter_mut().zip(counts.iter_mut()).enumerate() {
-        let (bi, bj) = (k % nb, k / nb);
+        let (bi, bj) = (
+            k.checked_rem(nb).unwrap_or(0),
+            k.checked_div(nb).unwrap_or(0),
+        );
         let (x0, y0) = (grid.offset + bi * b, grid.offset + bj * b);
         let filled: usize = (y0..y0 + b)
             .map(|y| {
@@ -170,7 +177,7 @@ pub fn relief_template(
         let cnt = *c;
         if cnt > 0 && filled >= need.max(1) {
             // Rounded mean (toward negative infinity for the half, as `div_euclid`).
-            *s = (*s + cnt / 2).div_euclid(cnt);
+            *s = (*s + cnt / 2).checked_div_euclid(cnt).unwrap_or(0);
             *c = 1;
             valid += 1;
             total += i64::from(*s);
@@ -180,7 +187,9 @@ pub fn relief_template(
         }
     }
     let mean = if valid > 0 {
-        (total + valid as i64 / 2).div_euclid(valid as i64) as i32
+        (total + valid as i64 / 2)
+            .checked_div_euclid(valid as i64)
+            .unwrap_or(0) as i32
     } else {
         0
     };

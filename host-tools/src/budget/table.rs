@@ -219,6 +219,7 @@ pub fn stage_units(stage: &str, r: &FixReport) -> Option<(u64, &'static str)> {
         )),
         Stage::NnEmbed => Some((o.embed_macs, "MAC")),
         Stage::NnMatch => Some((o.match_elements, "embedding element")),
+        Stage::Relief => (o.relief_macs > 0).then_some((o.relief_macs, "MAC")),
         Stage::Refine => Some((o.refine_macs, "MAC or downsampled pixel")),
     }
 }

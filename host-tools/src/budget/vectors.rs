@@ -13,7 +13,7 @@
 use crate::eval::pipeline::{
     make_queries, map_region, observe_raw, Condition, PipelineOptions, Query, Reprojection,
 };
-use crate::fix::{build_map_product, FixDepth, FixOutcome, FixRunner, MapProductOptions};
+use crate::fix::{build_map_product_relief, FixDepth, FixOutcome, FixRunner, MapProductOptions};
 use crate::fsutil::write_atomic;
 use crate::world::World;
 use anyhow::{Context, Result};
@@ -142,13 +142,15 @@ impl Vectors {
             grid: opts.grid,
             ..orbfix::fix::FixConfig::default()
         };
-        let product = build_map_product(
+        let heights = |x: f64, y: f64| world.height_m(x, y);
+        let product = build_map_product_relief(
             &map,
             weights,
             &MapProductOptions::for_fix(
                 &fix_cfg,
                 Some((q.sun_map.elevation_deg as f32, q.sun_map.azimuth_deg as f32)),
             )?,
+            Some(&heights),
         )?;
         let windows = MapProduct::parse(&product, CrcCheck::Verify)
             .map_err(|e| anyhow::anyhow!("{e}"))?
@@ -332,6 +334,7 @@ impl Vectors {
              pub const TOP: usize = {};\npub const MASK: usize = {};\n\
              pub const WORK_WORDS: usize = {};\npub const RESPONSE: usize = {};\n\
              pub const REFINE_FLOATS: usize = {};\npub const WEIGHTS_LEN: usize = {};\n\
+             pub const RELIEF_WORDS: usize = {};\n\
              pub const HAS_STEREO: bool = {};\npub const RIGHTS_LEN: usize = {};\n\
              pub const STEREO_BASELINE_M: f32 = {};\n\
              /// The filter's work after the fix (protocol::fusion_stop): settings as f32 bits\n\
@@ -366,6 +369,7 @@ impl Vectors {
             sz.response,
             sz.refine_floats,
             self.weights.len(),
+            sz.relief_words,
             self.rights.is_some(),
             right_bytes.len(),
             f(self.baseline_m),

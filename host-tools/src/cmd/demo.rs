@@ -13,7 +13,7 @@ use orbfix_host::eval::{
     best_matcher, fix_config_checked, fix_config_in, localize_fix, localize_top_down,
     matcher_by_name, overlay, save_png_atomic, window_cell_scores, write_atomic, MATCHERS,
 };
-use orbfix_host::fix::{build_map_product, FixRunner, MapProductOptions};
+use orbfix_host::fix::{build_map_product_relief, FixRunner, MapProductOptions};
 use orbfix_host::world::World;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -185,13 +185,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let mut truth_top: Option<orbfix_host::eval::TopDown> = None;
         let loc = match (&spec, fix_cfg) {
             (None, Some(cfg)) => {
-                let product = build_map_product(
+                let heights = |x: f64, y: f64| world.height_m(x, y);
+                let product = build_map_product_relief(
                     &map,
                     &weights,
                     &MapProductOptions::for_fix(
                         &cfg,
                         Some((q.sun_map.elevation_deg as f32, q.sun_map.azimuth_deg as f32)),
                     )?,
+                    Some(&heights),
                 )?;
                 let runner = FixRunner {
                     weights: weights.clone(),

@@ -5,7 +5,7 @@
 use anyhow::Context;
 use orbfix_host::eval::pipeline::map_region;
 use orbfix_host::eval::{save_png_atomic, write_atomic, MapMeta};
-use orbfix_host::fix::{build_map_product, MapProductOptions};
+use orbfix_host::fix::{build_map_product_relief, MapProductOptions};
 use orbfix_host::fsutil::check_output;
 use orbfix_host::nn::weights_file::WeightsArg;
 use orbfix_host::render::{RenderOptions, Sun};
@@ -157,7 +157,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let (Some(path), Some(weights)) = (&a.product, &weights) {
         let sun_deg = rendered.then_some((a.sun_elevation as f32, a.sun_azimuth as f32));
         let opts = MapProductOptions::for_fix(&orbfix::fix::FixConfig::default(), sun_deg)?;
-        let bytes = build_map_product(&map, weights, &opts)?;
+        let heights = |x: f64, y: f64| world.height_m(x, y);
+        let bytes = build_map_product_relief(&map, weights, &opts, Some(&heights))?;
         // What the rover will do first: the core's own validation, CRC included.
         let product =
             orbfix::map_product::MapProduct::parse(&bytes, orbfix::map_product::CrcCheck::Verify)

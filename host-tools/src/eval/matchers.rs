@@ -34,7 +34,7 @@ pub const FIX_OPTIONS: &str = "-pN (coarse peaks refined), -mnN (smallest NCC ke
 -raN / -rbN (stereo: relief searched above / below the ground, metres), -srN (stereo: \
 ground range matched, metres), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
 cost gap per window pixel), -msN (stereo: support, neighbours of 8), -mdN (largest depth \
-reprojected, metres)";
+reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks)";
 
 /// The fix configuration behind a fix matcher name (`fix`, `fix-ncc`, `fix-signed`, `cnn`,
 /// each optionally followed by [`FIX_OPTIONS`]), `None` for a baseline (or a fix name with
@@ -93,7 +93,11 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             .find(|c: char| !c.is_ascii_alphabetic())
             .unwrap_or(part.len());
         let (key, value) = part.split_at(at);
-        if !["p", "mn", "ra", "rb", "sr", "u", "mg", "ms", "md"].contains(&key) {
+        if ![
+            "p", "mn", "ra", "rb", "sr", "u", "mg", "ms", "md", "rw", "rm",
+        ]
+        .contains(&key)
+        {
             bail!("unknown option '{part}' of matcher '{name}' (fix options: {FIX_OPTIONS})");
         }
         let v: f32 = value.parse().ok().filter(|v: &f32| v.is_finite() && *v >= 0.0).with_context(|| {
@@ -118,6 +122,8 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "mg" => m.min_gap_per_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "ms" => m.min_support = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "md" => cfg.range.max_depth_m = v,
+            "rw" => cfg.relief.weight = v,
+            "rm" => cfg.relief.min_blocks = u16::try_from(whole(v)?).unwrap_or(u16::MAX),
             _ => bail!("unknown option '{part}' of matcher '{name}' (fix options: {FIX_OPTIONS})"),
         }
     }

@@ -7,7 +7,7 @@ use super::{
     fix_config_by_name, fix_config_in, localize_fix, localize_top_down, matcher_by_name,
     Localization, MapRegion, TopDown,
 };
-use crate::fix::{build_map_product, FixRunner, MapProductOptions};
+use crate::fix::{build_map_product_relief, FixRunner, MapProductOptions};
 use crate::world::World;
 use anyhow::Context;
 use orbfix::image::ImageView;
@@ -235,14 +235,18 @@ fn run_query(
     };
     // One map product per refinement plane the fix matchers need (`fix-signed` has its own).
     let sun_deg = Some((q.sun_map.elevation_deg as f32, q.sun_map.azimuth_deg as f32));
-    let mut products: Vec<(orbfix::map_product::RefinePlane, Vec<u8>)> = Vec::new();
+    let mut products: Vec<((orbfix::map_product::RefinePlane, usize), Vec<u8>)> = Vec::new();
+    let heights = |x: f64, y: f64| world.height_m(x, y);
     for name in &cfg.matchers {
         if let Some(fcfg) = fix_config_in(name, &cfg.pipeline) {
             let opts = MapProductOptions::for_fix(&fcfg, sun_deg)?;
-            let at = match products.iter().position(|(p, _)| *p == opts.plane) {
+            let key = (opts.plane, opts.relief_block_px);
+            let at = match products.iter().position(|(p, _)| *p == key) {
                 Some(i) => i,
                 None => {
-                    products.push((opts.plane, build_map_product(&map, &cfg.weights, &opts)?));
+                    let bytes =
+                        build_map_product_relief(&map, &cfg.weights, &opts, Some(&heights))?;
+                    products.push((key, bytes));
                     products.len() - 1
                 }
             };

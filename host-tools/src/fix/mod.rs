@@ -6,6 +6,6 @@ pub mod product;
 pub mod runner;
 pub mod scratch;
 
-pub use product::{build_map_product, MapProductOptions};
+pub use product::{build_map_product, build_map_product_relief, Heights, MapProductOptions};
 pub use runner::{FixDepth, FixOutcome, FixRunner};
 pub use scratch::OwnedScratch;

@@ -21,6 +21,8 @@ pub struct OwnedScratch {
     pub floats: Vec<f32>,
     /// The top-down image's embedding.
     pub emb: Box<[i8; EMBED_LEN]>,
+    /// The relief stage's blocks.
+    pub relief: Vec<i32>,
 }
 
 impl OwnedScratch {
@@ -33,6 +35,7 @@ impl OwnedScratch {
             response: vec![0; z.response],
             floats: vec![0.0; z.refine_floats],
             emb: Box::new([0; EMBED_LEN]),
+            relief: vec![0; z.relief_words],
         }
     }
 
@@ -55,6 +58,7 @@ impl OwnedScratch {
             response: &mut self.response,
             refine_floats: &mut self.floats,
             nn_embedding: &mut self.emb,
+            relief: &mut self.relief,
         }
     }
 }

@@ -18,7 +18,7 @@ use plan::{BIAS0_PER_DRIFT, BIAS_WALK_PER_DRIFT, SCALE_PER_DRIFT, WALK_PER_DRIFT
 pub use summary::{markdown_table, summarize, Summary};
 
 use crate::eval::pipeline::{map_region, observe_raw, Condition, PipelineOptions, Reprojection};
-use crate::fix::{build_map_product, FixRunner, MapProductOptions};
+use crate::fix::{build_map_product_relief, FixRunner, MapProductOptions};
 use crate::world::World;
 use orbfix::fix::{FixConfig, FixReport, FixStatus, HeadingSearch};
 use orbfix::fusion::{Fusion, FusionConfig, OdometryLeg};
@@ -388,11 +388,10 @@ impl Traverse {
         )?;
         // Window centres within `radius` of the prior: a map of the window side plus twice
         // the radius, in whole window steps.
-        let mo = MapProductOptions {
-            window_px: opts.grid.n,
-            sun_deg: Some((s.sun_map.elevation_deg as f32, s.sun_map.azimuth_deg as f32)),
-            ..MapProductOptions::default()
-        };
+        let mo = MapProductOptions::for_fix(
+            &self.runner.cfg,
+            Some((s.sun_map.elevation_deg as f32, s.sun_map.azimuth_deg as f32)),
+        )?;
         let m = opts.grid.m_per_px as f64;
         let steps = (radius / m / mo.step_px as f64).ceil().max(1.0) as usize;
         let map_px = opts.grid.n + 2 * steps * mo.step_px;
@@ -405,7 +404,9 @@ impl Traverse {
             s.sun_map,
             &opts.render,
         )?;
-        let product = build_map_product(&map, &self.runner.weights, &mo)?;
+        let world = &self.world;
+        let heights = |x: f64, y: f64| world.height_m(x, y);
+        let product = build_map_product_relief(&map, &self.runner.weights, &mo, Some(&heights))?;
         let render_s = t0.elapsed().as_secs_f64();
         let frames = obs.frames()?;
         let pose_at = |h: f64| {
