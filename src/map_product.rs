@@ -386,6 +386,26 @@ impl<'a> ReliefPlane<'a> {
         }
     }
 
+    /// Blocks in the plane (`cols rows`).
+    pub fn len(&self) -> usize {
+        self.bytes.len() / 2
+    }
+
+    /// Whether the plane has no blocks.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The plane as `i16` in place, where the bytes are 2-aligned (on a little-endian
+    /// target the stored order is the native one); `None` otherwise.
+    #[cfg(target_endian = "little")]
+    pub fn as_i16(&self) -> Option<&'a [i16]> {
+        // Safety: every bit pattern is a valid `i16`; `align_to` only yields the aligned
+        // middle part, which is used only when it is the whole plane.
+        let (head, mid, tail) = unsafe { self.bytes.align_to::<i16>() };
+        (head.is_empty() && tail.is_empty()).then_some(mid)
+    }
+
     /// Row `row`'s bytes (`2 cols`, little-endian `i16`).
     pub fn row_bytes(&self, row: usize) -> Option<&'a [u8]> {
         self.bytes

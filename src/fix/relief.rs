@@ -83,8 +83,11 @@ pub(crate) fn add_scores(
     response: &mut [i32],
 ) -> u64 {
     let v = vals.len().min(offs.len());
-    let (vals, offs) = (&vals[..v], &offs[..v]);
-    if v == 0 {
+    let (Some(vals), Some(offs)) = (vals.get(..v), offs.get(..v)) else {
+        return 0;
+    };
+    // At most 2^15 blocks keeps every sum of `|d| < 2^15` inside `i32` ([`Scores::run`]).
+    if v == 0 || v > 1 << 15 || cols == 0 || rows == 0 || response.len() < cols * rows {
         return 0;
     }
     let energy: i64 = vals.iter().map(|&t| i64::from(t) * i64::from(t)).sum();
@@ -92,42 +95,83 @@ pub(crate) fn add_scores(
     if sq_t == 0 {
         return 0;
     }
+    // Every block read, `base + o` with `base <= (rows - 1) pc + cols - 1`, lies in the
+    // plane: checked once here (the layout guarantees it for a parsed product).
     let pc = plane.cols();
-    let mut macs = 0u64;
-    for r in 0..rows {
-        let Some(_) = plane.row_bytes(r) else { break };
-        for c in 0..cols {
-            let base = r * pc + c;
-            let (mut s, mut ss, mut st) = (0i64, 0i64, 0i64);
-            for (&t, &o) in vals.iter().zip(offs) {
-                let d = i64::from(plane.at(base + o as usize).unwrap_or(0));
-                s += d;
-                ss += d * d;
-                st += i64::from(t) * d;
-            }
-            macs += 3 * v as u64;
-            // Σ (d - mean)^2 = ss - s^2 / v; the template is zero-mean, so Σ t (d - mean)
-            // = st.
-            let var = ss - (s * s).checked_div(v as i64).unwrap_or(0);
-            let sq_d = (var.max(0) as u64).isqrt() as i64;
-            let den = sq_t * sq_d;
-            // Clamped: the square roots round down, so a perfect match can come out a
-            // little above 1.
-            let ncc = if den > 0 {
-                (st << 15)
-                    .checked_div(den)
-                    .unwrap_or(0)
-                    .clamp(-32_768, 32_768)
-            } else {
-                0
-            };
-            if let Some(o) = response.get_mut(r * cols + c) {
-                let add = (weight_q8 * ncc) >> 8;
+    let max_off = offs.iter().copied().max().unwrap_or(0);
+    if offs.iter().any(|&o| o < 0) || (rows - 1) * pc + (cols - 1) + max_off as usize >= plane.len()
+    {
+        return 0;
+    }
+    let p = Scores {
+        vals,
+        offs,
+        cols,
+        rows,
+        pc,
+        sq_t,
+        weight_q8,
+    };
+    #[cfg(target_endian = "little")]
+    if let Some(h) = plane.as_i16() {
+        // Safety: every index `k` passed is below `plane.len() == h.len()` (checked above).
+        p.run(response, |k| i32::from(unsafe { *h.get_unchecked(k) }));
+        return 3 * (v * cols * rows) as u64;
+    }
+    p.run(response, |k| i32::from(plane.at(k).unwrap_or(0)));
+    3 * (v * cols * rows) as u64
+}
+
+/// The per-window correlations of [`add_scores`] once its checks have passed.
+struct Scores<'t> {
+    vals: &'t [i32],
+    offs: &'t [i32],
+    cols: usize,
+    rows: usize,
+    pc: usize,
+    sq_t: i64,
+    weight_q8: i64,
+}
+
+impl Scores<'_> {
+    #[inline(always)]
+    fn run<F: Fn(usize) -> i32>(&self, response: &mut [i32], at: F) {
+        let v = self.vals.len() as i64;
+        for (r, out) in response
+            .chunks_exact_mut(self.cols)
+            .take(self.rows)
+            .enumerate()
+        {
+            for (c, o) in out.iter_mut().enumerate() {
+                let base = r * self.pc + c;
+                // |d| <= 2^15 and at most 2^15 blocks: the sum fits `i32`, d^2 too.
+                let (mut s, mut ss, mut st) = (0i32, 0i64, 0i64);
+                for (&t, &off) in self.vals.iter().zip(self.offs) {
+                    let d = at(base + off as usize);
+                    s += d;
+                    ss += i64::from(d * d);
+                    st += i64::from(t) * i64::from(d);
+                }
+                // Σ (d - mean)^2 = ss - s^2 / v; the template is zero-mean, so Σ t (d -
+                // mean) = st.
+                let s = i64::from(s);
+                let var = ss - (s * s).checked_div(v).unwrap_or(0);
+                let den = self.sq_t * (var.max(0) as u64).isqrt() as i64;
+                // Clamped: the square roots round down, so a perfect match can come out a
+                // little above 1.
+                let ncc = if den > 0 {
+                    (st << 15)
+                        .checked_div(den)
+                        .unwrap_or(0)
+                        .clamp(-32_768, 32_768)
+                } else {
+                    0
+                };
+                let add = (self.weight_q8 * ncc) >> 8;
                 *o = o.saturating_add(add.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
             }
         }
     }
-    macs
 }
 
 #[cfg(test)]
