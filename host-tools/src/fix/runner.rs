@@ -131,15 +131,17 @@ impl FixRunner {
         search: &HeadingSearch,
     ) -> anyhow::Result<(HeadingFix, FixOutcome)> {
         let n = self.cfg.grid.n;
+        // Boxed: the search result holds a report per heading; by value it took this
+        // frame past 4 KiB (a stack probe, scripts/stack-probe-check.py).
         let ((hf, digest), mut out) =
             self.with_scratch(params, pose, frames, depth, product, |inputs, scratch| {
-                let hf = heading_search(inputs, &self.cfg, search, scratch)?;
+                let hf = Box::new(heading_search(inputs, &self.cfg, search, scratch)?);
                 let digest = fix::output_digest(&hf.report, scratch, n);
                 Ok((hf, digest))
             })?;
         out.report = hf.report.clone();
         out.digest = digest;
-        Ok((hf, out))
+        Ok((*hf, out))
     }
 
     /// Sets up the inputs and owned scratch, times `f` on them and returns its result with
