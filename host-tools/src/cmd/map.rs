@@ -178,6 +178,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             a.weights.describe(),
             bytes.len() as f64 / 1e6
         );
+        if let Some(r) = product.relief() {
+            println!(
+                "  relief plane: {} x {} elevation blocks of {} px ({} per window side), Q4 m",
+                r.cols(),
+                r.rows(),
+                meta.relief_block_px,
+                r.blocks()
+            );
+        }
     }
     if let Some(d) = dem {
         let (ox, oy) = d.crs_offset_m();
