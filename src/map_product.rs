@@ -405,12 +405,6 @@ impl<'a> ReliefPlane<'a> {
         let (head, mid, tail) = unsafe { self.bytes.align_to::<i16>() };
         (head.is_empty() && tail.is_empty()).then_some(mid)
     }
-
-    /// Row `row`'s bytes (`2 cols`, little-endian `i16`).
-    pub fn row_bytes(&self, row: usize) -> Option<&'a [u8]> {
-        self.bytes
-            .get(2 * row * self.cols..2 * (row + 1) * self.cols)
-    }
 }
 
 /// Whether [`MapProduct::parse`] recomputes the CRC.

@@ -61,16 +61,28 @@ fn render_at(world: &World, x: f64, y: f64, heading: f64, r: &RenderOptions) -> 
     render::render_views_with_range(world, &pose, Sun::default(), r).unwrap()
 }
 
+/// Stop `i` of the first `n` same-sun test-zone stops of `world`: its pose, its views and
+/// their exact depth images.
+fn stop_with_depths(
+    world: &World,
+    n: usize,
+    i: usize,
+    r: &RenderOptions,
+) -> (orbfix::camera::RoverPose, ViewSet, [Vec<u16>; 4]) {
+    let q = make_queries(1, n, Condition::SameSun)[i];
+    let pose = render::ground_pose(world, q.x_m, q.y_m, q.heading_deg);
+    let set = render_at(world, q.x_m, q.y_m, q.heading_deg, r);
+    let depths = depth_images(&set, None).unwrap();
+    (pose, set, depths)
+}
+
 #[test]
 fn core_range_matches_f64_reference_on_relief() {
     let world = World::new(1);
     let r = small_render();
-    let q = make_queries(1, 1, Condition::SameSun)[0];
-    let pose = render::ground_pose(&world, q.x_m, q.y_m, q.heading_deg);
-    let set = render_at(&world, q.x_m, q.y_m, q.heading_deg, &r);
+    let (pose, set, depths) = stop_with_depths(&world, 1, 0, &r);
     let grid = GridSpec::default();
     let reference = reproject_by_range(&set, &pose, &grid);
-    let depths = depth_images(&set, None).unwrap();
     let (core, report) = reproject_depths(&set.views, &depths, &r, &pose, &grid).unwrap();
     assert!(report.status.iter().all(|s| *s == FrameStatus::Ok));
     let (d, common) = mean_diff(&core, &reference);
@@ -411,11 +423,8 @@ fn relief_blocks_follow_the_world_heights() {
     use orbfix::reproject::{relief_template, relief_words, ReliefGrid};
     let world = World::new(1);
     let r = small_render();
-    let q = make_queries(1, 3, Condition::SameSun)[2];
-    let pose = render::ground_pose(&world, q.x_m, q.y_m, q.heading_deg);
-    let set = render_at(&world, q.x_m, q.y_m, q.heading_deg, &r);
+    let (pose, set, depths) = stop_with_depths(&world, 3, 2, &r);
     let grid = GridSpec::default();
-    let depths = depth_images(&set, None).unwrap();
     let params = r.camera_params();
     let rg = ReliefGrid::new(grid.n, 16).unwrap();
     let mut words = vec![0i32; relief_words(&rg)];

@@ -63,11 +63,6 @@ impl ReliefGrid {
         self.offset
     }
 
-    /// `i32` words of the accumulator ([`relief_words`]).
-    pub fn words(&self) -> usize {
-        relief_words(self)
-    }
-
     /// The block holding cell `(col, row)`, as an index into the accumulator, if any.
     #[inline(always)]
     pub(crate) fn block_of(&self, col: u32, row: u32) -> Option<usize> {
