@@ -454,9 +454,9 @@ pub struct DepthBand<'a> {
 /// Places one row, every `stride`-th pixel from the first: the `k`-th pixel read has the
 /// ray `ray + k * step` (`step` is already `stride` columns; Q32 per depth unit: cells
 /// east, cells south, metres up). Returns the pixels accumulated. `HEIGHT` / `RANGE` switch the
-/// height-band and range tests on, `RELIEF` the relief blocks ([`super::relief`]).
+/// height-band and range tests on.
 #[inline(always)]
-fn place_row<const HEIGHT: bool, const RANGE: bool, const RELIEF: bool>(
+fn place_row<const HEIGHT: bool, const RANGE: bool>(
     frow: &[u8],
     drow: &[u16],
     stride: usize,
@@ -468,16 +468,16 @@ fn place_row<const HEIGHT: bool, const RANGE: bool, const RELIEF: bool>(
     // Every pixel: a plain zip (a runtime `step_by` slows the common loop down).
     if stride <= 1 {
         let it = frow.iter().zip(drow);
-        place_pixels::<HEIGHT, RANGE, RELIEF, _>(it, ray, step, lim, cells)
+        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, cells)
     } else {
         let it = frow.iter().zip(drow).step_by(stride);
-        place_pixels::<HEIGHT, RANGE, RELIEF, _>(it, ray, step, lim, cells)
+        place_pixels::<HEIGHT, RANGE, _>(it, ray, step, lim, cells)
     }
 }
 
 /// The per-pixel loop of [`place_row`] over the pixels read.
 #[inline(always)]
-fn place_pixels<'p, const HEIGHT: bool, const RANGE: bool, const RELIEF: bool, I>(
+fn place_pixels<'p, const HEIGHT: bool, const RANGE: bool, I>(
     pixels: I,
     ray: [i32; 3],
     step: [i32; 3],
@@ -496,13 +496,12 @@ where
     else {
         return 0;
     };
-    let mut relief = cells.relief.as_mut();
     let mut used = 0u32;
     for (&g, &z) in pixels {
         let (rx, ry, rz) = (dx, dy, dz);
         dx = dx.wrapping_add(bx);
         dy = dy.wrapping_add(by);
-        if HEIGHT || RELIEF {
+        if HEIGHT {
             dz = dz.wrapping_add(bz);
         }
         // One compare for "no depth" (0 wraps to 65535) and "too far".
@@ -510,13 +509,11 @@ where
             continue;
         }
         let zi = i64::from(z);
-        let hz = if HEIGHT || RELIEF {
-            zi * i64::from(rz)
-        } else {
-            0
-        };
-        if HEIGHT && (hz < lim.h_lo || hz > lim.h_hi) {
-            continue;
+        if HEIGHT {
+            let hz = zi * i64::from(rz);
+            if hz < lim.h_lo || hz > lim.h_hi {
+                continue;
+            }
         }
         // Positions are below 2^46 (rays < 2^30, depths < 2^16), so the cell index (the
         // high word) fits i32; negative cells wrap to huge u32 and fail the bound.
@@ -538,19 +535,94 @@ where
                 *c += 1;
                 // At most 255 samples of at most 255: the sum stays <= 65,025.
                 *sum += u16::from(g);
-                if RELIEF {
-                    if let Some(rc) = relief.as_deref_mut() {
-                        if let Some(b) = rc.grid.block_of(col, row) {
-                            // Q32 metres to Q7: heights within +-2^24 m fit i32.
-                            rc.add(b, (hz >> (POS_FRAC_BITS - RELIEF_FRAC_BITS)) as i32);
-                        }
-                    }
-                }
             }
             used += 1;
         }
     }
     used
+}
+
+/// Points per block side the relief pass aims for, along and across the frame's rows.
+const RELIEF_SAMPLES: f32 = 8.0;
+/// Most frame rows between two rows of the relief pass (a power of two).
+const RELIEF_MAX_ROW_STEP: usize = 16;
+/// Most columns between two points of the relief pass.
+const RELIEF_MAX_COL_STEP: usize = 64;
+
+/// Frame rows between two rows of the relief pass where the flat ground lies beyond the
+/// grid, or above the horizon (a power of two).
+const RELIEF_FAR_ROW_STEP: usize = 4;
+
+/// Row and column steps of the relief pass ([`relief_row`]) for a frame row whose
+/// flat-ground depth at the centre column is `flat_m` metres (`None`: at or above the
+/// horizon), for blocks `block_m` metres wide, focal length `f` pixels, camera `h` metres
+/// up: about [`RELIEF_SAMPLES`] points per block side. On flat ground a row covers `t / f`
+/// metres per column and `(h^2 + t^2) / (f h)` metres per row at depth `t`. Rows whose
+/// flat ground lies beyond `reach_m` (the grid's half diagonal) see the grid only where the
+/// terrain rises: every [`RELIEF_FAR_ROW_STEP`]-th row, columns as at `reach_m`. The row
+/// step is a power of two, so the rows a step picks are also picked by every smaller step.
+fn relief_steps(flat_m: Option<f32>, reach_m: f32, block_m: f32, f: f32, h: f32) -> (usize, usize) {
+    let along = block_m / RELIEF_SAMPLES;
+    let col_step = |t: f32| {
+        let c = libm::floorf(along * f / t);
+        if c >= 1.0 {
+            (c as usize).min(RELIEF_MAX_COL_STEP)
+        } else {
+            1
+        }
+    };
+    let t = match flat_m {
+        Some(t) if t.is_finite() && t > 0.0 && t <= reach_m => t,
+        _ => return (RELIEF_FAR_ROW_STEP, col_step(reach_m)),
+    };
+    let rows = libm::floorf(along * f * h / (h * h + t * t));
+    let rows = if rows >= 1.0 {
+        (rows as usize).min(RELIEF_MAX_ROW_STEP)
+    } else {
+        1
+    };
+    // The largest power of two not above `rows`.
+    (
+        1usize << (usize::BITS - 1 - rows.leading_zeros()),
+        col_step(t),
+    )
+}
+
+/// The relief pass over one frame row: every `stride`-th depth of `drow` from the first,
+/// with rays as [`place_row`]'s (`step` already `stride` columns), adds the point's height
+/// (Q7 metres) to its block. Points without depth, beyond the depth limit or outside the
+/// height band add nothing.
+fn relief_row(
+    drow: &[u16],
+    stride: usize,
+    ray: [i32; 3],
+    step: [i32; 3],
+    lim: &Limits,
+    rc: &mut ReliefCells<'_>,
+) {
+    let [mut dx, mut dy, mut dz] = ray;
+    let [bx, by, bz] = step;
+    for &z in drow.iter().step_by(stride.max(1)) {
+        let (rx, ry, rz) = (dx, dy, dz);
+        dx = dx.wrapping_add(bx);
+        dy = dy.wrapping_add(by);
+        dz = dz.wrapping_add(bz);
+        if z.wrapping_sub(1) >= lim.max_depth {
+            continue;
+        }
+        let zi = i64::from(z);
+        let hz = zi * i64::from(rz);
+        if hz < lim.h_lo || hz > lim.h_hi {
+            continue;
+        }
+        // As in `place_pixels`: the cell index fits i32; negative cells fail the bound.
+        let col = ((lim.c_q + zi * i64::from(rx)) >> POS_FRAC_BITS) as i32 as u32;
+        let row = ((lim.c_q + zi * i64::from(ry)) >> POS_FRAC_BITS) as i32 as u32;
+        if let Some(b) = rc.grid.block_of(col, row) {
+            // Q32 metres to Q7: heights within +-2^24 m fit i32.
+            rc.add(b, (hz >> (POS_FRAC_BITS - RELIEF_FRAC_BITS)) as i32);
+        }
+    }
 }
 
 /// The per-cell accumulator: gray sums (`u16`, in the caller's scratch) and sample counts
@@ -636,9 +708,13 @@ impl<'s> RangeAccumulator<'s> {
         })
     }
 
-    /// Also accumulates the relief on `grid`'s blocks ([`super::relief`]) into `words`
+    /// Also accumulates the relief on `grid`'s blocks ([`super::ReliefGrid`]) into `words`
     /// ([`super::relief_words`] long, cleared here): the mean height of the points of each
-    /// block, which [`super::relief_template`] reads once the accumulator is finished.
+    /// block, which [`super::relief_template`] reads once the accumulator is finished. The
+    /// heights come from a sparse pass over the depths of each row, separate from the
+    /// gray-level placement (about 8 points per block side at every distance), so the
+    /// relief costs a few per cent of the reprojection; the image is the same with or
+    /// without it.
     /// `grid` must be made for this accumulator's grid side.
     pub fn with_relief(
         mut self,
@@ -889,16 +965,16 @@ impl<'s> RangeAccumulator<'s> {
             }
         }
         let ray = [to_q(ax)?, to_q(ay)?, to_q(az)?];
-        // Column stride from the row's flat-ground depth at its centre column.
+        // The row's flat-ground depth at its centre column, metres (`None` at or above the
+        // horizon).
+        let up_mid = a[2] + ax_r[2] * (0.5 * w as f32 - 0.5) / f;
+        let flat_m = (up_mid < 0.0).then(|| params.height_m / -up_mid);
+        // Column stride from that depth.
         let mut stride = 1usize;
-        if opts.max_column_stride > 1 {
-            let up_mid = a[2] + ax_r[2] * (0.5 * w as f32 - 0.5) / f;
-            if up_mid < 0.0 {
-                let t = params.height_m / -up_mid;
-                let st = libm::floorf(grid.m_per_px * f / (2.0 * t));
-                if st >= 2.0 {
-                    stride = (st as usize).min(usize::from(opts.max_column_stride));
-                }
+        if let (true, Some(t)) = (opts.max_column_stride > 1, flat_m) {
+            let st = libm::floorf(grid.m_per_px * f / (2.0 * t));
+            if st >= 2.0 {
+                stride = (st as usize).min(usize::from(opts.max_column_stride));
             }
         }
         stride = stride.min(w.max(1));
@@ -911,26 +987,35 @@ impl<'s> RangeAccumulator<'s> {
         let read = w.div_ceil(stride.max(1)) as u64;
         let lim = &s.lim;
         let scratch = &mut self.cells;
+        // The relief: a sparse pass of its own, about RELIEF_SAMPLES points per block side.
+        if let Some(rc) = scratch.relief.as_mut() {
+            let block_m = grid.m_per_px * rc.grid.block_px() as f32;
+            // Half the grid's diagonal: beyond it, only terrain that rises lands in a block.
+            let reach_m = grid.n as f32 * grid.m_per_px * core::f32::consts::FRAC_1_SQRT_2;
+            let (rows, cols) = relief_steps(flat_m, reach_m, block_m, f, params.height_m);
+            if j % rows == 0 {
+                let c = cols.min(w.max(1));
+                let kc = c as i32;
+                let rstep = [
+                    bx_q.wrapping_mul(kc),
+                    by_q.wrapping_mul(kc),
+                    bz_q.wrapping_mul(kc),
+                ];
+                relief_row(drow, c, ray, rstep, lim, rc);
+            }
+        }
         // Monomorphized per limit set so the default (no height band, no range limit)
         // loop keeps its state in registers.
         macro_rules! row {
-            ($h:literal, $r:literal, $l:literal) => {
-                place_row::<$h, $r, $l>(frow, drow, stride, ray, step, lim, scratch)
+            ($h:literal, $r:literal) => {
+                place_row::<$h, $r>(frow, drow, stride, ray, step, lim, scratch)
             };
         }
-        let used = match (
-            s.height_band,
-            s.range_lim.is_some(),
-            scratch.relief.is_some(),
-        ) {
-            (false, false, false) => row!(false, false, false),
-            (true, false, false) => row!(true, false, false),
-            (false, true, false) => row!(false, true, false),
-            (true, true, false) => row!(true, true, false),
-            (false, false, true) => row!(false, false, true),
-            (true, false, true) => row!(true, false, true),
-            (false, true, true) => row!(false, true, true),
-            (true, true, true) => row!(true, true, true),
+        let used = match (s.height_band, s.range_lim.is_some()) {
+            (false, false) => row!(false, false),
+            (true, false) => row!(true, false),
+            (false, true) => row!(false, true),
+            (true, true) => row!(true, true),
         };
         self.report.pixels_read += read;
         self.report.points_used += u64::from(used);
@@ -1094,6 +1179,34 @@ const fn scratch_words(halves: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn relief_pass_samples_evenly_on_the_ground() {
+        // 4 m blocks, f = 320 px, camera 2 m up, grid reach 35.4 m.
+        let at = |t: Option<f32>| relief_steps(t, 35.4, 4.0, 320.0, 2.0);
+        // Near: 0.5 m is 32 columns at 5 m; rows cover ~4.5 cm each, so the step is capped
+        // to a power of two (11 -> 8).
+        assert_eq!(at(Some(5.0)), (8, 32));
+        // Far: every row, a few columns apart.
+        assert_eq!(at(Some(30.0)), (1, 5));
+        // Beyond the grid's reach, above the horizon or not finite: sparse rows, columns as
+        // at the reach.
+        for t in [
+            Some(80.0),
+            None,
+            Some(f32::INFINITY),
+            Some(f32::NAN),
+            Some(-1.0),
+        ] {
+            assert_eq!(at(t), (RELIEF_FAR_ROW_STEP, 4), "{t:?}");
+        }
+        // Every row step is a power of two within its cap, every column step at least 1.
+        for t in (1..400).map(|k| k as f32 * 0.1) {
+            let (r, c) = at(Some(t));
+            assert!(r.is_power_of_two() && r <= RELIEF_MAX_ROW_STEP, "{t}: {r}");
+            assert!((1..=RELIEF_MAX_COL_STEP).contains(&c), "{t}: {c}");
+        }
+    }
 
     #[test]
     fn accumulator_saturates_and_averages() {

@@ -1,6 +1,7 @@
 //! The relief the range reprojection saw, on a coarse block grid: the mean height of the
-//! points that fell in each block of the top-down grid, for matching against an orbital
-//! elevation model (sun-independent, unlike the gray levels).
+//! points (a sparse sample of them, [`super::RangeAccumulator::with_relief`]) that fell in
+//! each block of the top-down grid, for matching against an orbital elevation model
+//! (sun-independent, unlike the gray levels).
 //!
 //! The blocks are `block_px x block_px` cells of the `n x n` top-down grid, `blocks` per
 //! side, centred: block `(i, j)` (column `i`, row `j`, row 0 north) covers cells
