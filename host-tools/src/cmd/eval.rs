@@ -6,10 +6,25 @@ use orbfix::localize::LocalizeConfig;
 use orbfix_host::eval::pipeline::{Condition, DepthSource, PipelineOptions, Reprojection};
 use orbfix_host::eval::run::{run_eval, EvalConfig, EvalOutput};
 use orbfix_host::eval::{
-    figures, overlay, parse_matchers, save_png_atomic, write_atomic, MATCHERS,
+    figures, overlay, parse_matchers, save_png_atomic, write_atomic, FIX_OPTIONS, MATCHERS,
 };
 use orbfix_host::reproject::depth::StereoNoise;
 use std::path::{Path, PathBuf};
+
+/// The long help of `--matcher`: the matchers and every option a fix name may carry
+/// ([`FIX_OPTIONS`], the list the parser checks).
+fn matcher_help() -> String {
+    format!(
+        "Matcher, or a comma-separated list sharing the renders: fix (the flight core's one \
+         fix, `orbfix::fix::run`: CNN over the map product's 4 m window records, the relief \
+         stage with depth, masked NCC refinement, sub-pixel peak), fix-ncc (NCC refinement \
+         always kept), cnn (the bare CNN: its sub-cell peak only); a fix name may carry \
+         options that change one setting of the core's FixConfig, for tuning on a \
+         development seed: {FIX_OPTIONS}; e.g. fix-p5 or fix-ra1-u20. The baselines run on \
+         the core's top-down image. Available: {}.",
+        MATCHERS.join(", ")
+    )
+}
 
 /// Evaluate matchers on generated rover stops of the test zone (no dataset needed).
 #[derive(clap::Args, Debug)]
@@ -24,15 +39,8 @@ pub struct Args {
     #[arg(long, default_value_t = 30)]
     pub queries: usize,
     /// Matcher, or a comma-separated list sharing the renders: fix (the flight core's one
-    /// fix, `orbfix::fix::run`: CNN over the map product's 4 m window records, masked NCC
-    /// refinement, sub-pixel peak), fix-ncc (NCC refinement always kept), cnn (the bare CNN:
-    /// its sub-cell peak only); a fix name may carry options that change one setting of the
-    /// core's FixConfig, for tuning on the development seed: -pN (coarse peaks refined),
-    /// -mnN (smallest NCC kept), -raN / -rbN (stereo relief above / below the ground, m),
-    /// -srN (stereo ground range, m), -uN (stereo uniqueness, %), -msN (stereo support),
-    /// -mdN (largest depth reprojected, m), e.g. fix-p5 or fix-ra1-u20; baselines on the
-    /// core's top-down image: ncc, ncc-hp2, ncc-dist, l1, l2.
-    #[arg(long, default_value = "fix")]
+    /// fix), fix-ncc, cnn, or a baseline; a fix name may carry options (see --help).
+    #[arg(long, default_value = "fix", long_help = matcher_help())]
     pub matcher: String,
     /// CNN weight file (.ofw) for the fix matchers and their map products (default: the
     /// shipped weights/matcher-v2.ofw).
