@@ -9,6 +9,7 @@
 //! free), sums in `i64`, the correlation Q15.
 
 use crate::map_product::ReliefPlane;
+use crate::nn::window_cosine::{isqrt_u64_bits, q15_quotient};
 use crate::reproject::ReliefTemplate;
 
 /// Settings of the relief stage ([`super::FixConfig::relief`]).
@@ -149,23 +150,32 @@ impl Scores<'_> {
                 for (&t, &off) in self.vals.iter().zip(self.offs) {
                     let d = at(base + off as usize);
                     s += d;
-                    ss += i64::from(d * d);
+                    // Widened before the product: one `SMLAL` each on Armv7E-M.
+                    ss += i64::from(d) * i64::from(d);
                     st += i64::from(t) * i64::from(d);
                 }
                 // Σ (d - mean)^2 = ss - s^2 / v; the template is zero-mean, so Σ t (d -
                 // mean) = st.
-                let s = i64::from(s);
-                let var = ss - (s * s).checked_div(v).unwrap_or(0);
-                let den = self.sq_t * (var.max(0) as u64).isqrt() as i64;
+                let s2 = i64::from(s) * i64::from(s);
+                // s^2 / v by a 32-bit division where s^2 fits (heights of a few metres
+                // always do): the same floor, without a 64-bit division call.
+                let mean_sq = match (u32::try_from(s2), u32::try_from(v)) {
+                    (Ok(a), Ok(b)) => a.checked_div(b).map_or(0, i64::from),
+                    _ => s2.checked_div(v).unwrap_or(0),
+                };
+                let var = ss - mean_sq;
+                // The floor of the square root, one bit per step (equal to `u64::isqrt`).
+                let den = self.sq_t * isqrt_u64_bits(var.max(0) as u64) as i64;
                 // Clamped: the square roots round down, so a perfect match can come out a
-                // little above 1.
-                let ncc = if den > 0 {
-                    (st << 15)
+                // little above 1. The quotient bit by bit where the denominator fits `u32`
+                // (the same truncated, clamped value as the 64-bit division).
+                let ncc = match u32::try_from(den) {
+                    Ok(d) => i64::from(q15_quotient(st << 15, d)),
+                    Err(_) if den > 0 => (st << 15)
                         .checked_div(den)
                         .unwrap_or(0)
-                        .clamp(-32_768, 32_768)
-                } else {
-                    0
+                        .clamp(-32_768, 32_768),
+                    Err(_) => 0,
                 };
                 let add = (self.weight_q8 * ncc) >> 8;
                 *o = o.saturating_add(add.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32);
@@ -187,32 +197,10 @@ mod tests {
     fn the_true_window_scores_highest() {
         // 40 x 40 map, 16 px windows every 4 px: 7 x 7 windows, 4 blocks per window side,
         // a 10 x 10 relief plane with a bump pattern.
-        let meta = MapProductMeta {
-            geo: GeoRef::new(0.0, 0.0, 0.25).unwrap(),
-            width: 40,
-            height: 40,
-            window_px: 16,
-            step_px: 4,
-            weights_crc: 0,
-            sun_deg: None,
-            plane: RefinePlane::new(2, true).unwrap(),
-            relief_block_px: 4,
-        };
-        let l = MapProductLayout::of(&meta).unwrap();
-        // 49 window records (2,056 bytes each) and the rest.
-        let mut raw = [0u8; 110_000];
-        let buf = &mut raw[..l.total];
-        write_header(&meta, buf).unwrap();
         let h =
             |i: usize, j: usize| ((i * i * 7 + j * j * 3 + i * j * 5 + i) % 17) as i16 * 16 - 128;
-        for j in 0..l.relief_rows {
-            for i in 0..l.relief_cols {
-                let at = l.relief_at + 2 * (j * l.relief_cols + i);
-                buf[at..at + 2].copy_from_slice(&h(i, j).to_le_bytes());
-            }
-        }
-        seal(buf).unwrap();
-        let p = MapProduct::parse(buf, CrcCheck::Verify).unwrap();
+        let mut raw = [0u8; 110_000];
+        let p = product(&mut raw, h);
         let plane = p.relief().unwrap();
         // The rover saw the blocks of window (3, 2), one block missing, in Q7 m (8x Q4)
         // plus an offset (its own datum).
@@ -241,5 +229,85 @@ mod tests {
         let mut half = [0i32; 49];
         add_scores(&plane, &vals[..v], &offs[..v], 7, 7, 128, &mut half);
         assert!((half[best] - resp[best] / 2).abs() <= 1);
+        // Every window's score is the plain 64-bit formula's (64-bit divisions, `u64::isqrt`).
+        assert_eq!(resp, plain_scores(&plane, &vals[..v], &offs[..v], 7, 7));
+        // Heights far beyond the realistic (s^2 and the denominator past `u32`): the 64-bit
+        // paths, the same formula.
+        let big: [i32; 15] = core::array::from_fn(|k| if k % 2 == 0 { 32_767 } else { -20_000 });
+        let mut raw_big = [0u8; 110_000];
+        let pb = product(&mut raw_big, |i, j| {
+            if (i + 2 * j) % 3 == 0 {
+                32_000
+            } else {
+                -31_000 + (i * 10 + j) as i16
+            }
+        });
+        let bp = pb.relief().unwrap();
+        let offs_big = &offs[..15];
+        let mut got = [0i32; 49];
+        add_scores(&bp, &big, offs_big, 7, 7, 256, &mut got);
+        assert_eq!(got, plain_scores(&bp, &big, offs_big, 7, 7));
+        assert!(got.iter().any(|&r| r != 0));
+    }
+
+    /// A 40 x 40 map product, 16 px windows every 4 px (7 x 7 windows, 4 blocks per window
+    /// side), whose 10 x 10 relief plane holds `h(col, row)`, sealed in `raw`.
+    fn product(raw: &mut [u8], h: impl Fn(usize, usize) -> i16) -> MapProduct<'_> {
+        let meta = MapProductMeta {
+            geo: GeoRef::new(0.0, 0.0, 0.25).unwrap(),
+            width: 40,
+            height: 40,
+            window_px: 16,
+            step_px: 4,
+            weights_crc: 0,
+            sun_deg: None,
+            plane: RefinePlane::new(2, true).unwrap(),
+            relief_block_px: 4,
+        };
+        let l = MapProductLayout::of(&meta).unwrap();
+        let buf = &mut raw[..l.total];
+        write_header(&meta, buf).unwrap();
+        for j in 0..l.relief_rows {
+            for i in 0..l.relief_cols {
+                let at = l.relief_at + 2 * (j * l.relief_cols + i);
+                buf[at..at + 2].copy_from_slice(&h(i, j).to_le_bytes());
+            }
+        }
+        seal(buf).unwrap();
+        MapProduct::parse(buf, CrcCheck::Verify).unwrap()
+    }
+
+    /// The scores [`add_scores`] adds at weight 1, by the plain 64-bit formula.
+    fn plain_scores(
+        plane: &ReliefPlane<'_>,
+        vals: &[i32],
+        offs: &[i32],
+        cols: usize,
+        rows: usize,
+    ) -> [i32; 49] {
+        let v = vals.len() as i64;
+        let energy: i64 = vals.iter().map(|&t| i64::from(t) * i64::from(t)).sum();
+        let sq_t = (energy as u64).isqrt() as i64;
+        let mut out = [0i32; 49];
+        for r in 0..rows {
+            for c in 0..cols {
+                let (mut s, mut ss, mut st) = (0i64, 0i64, 0i64);
+                for (&t, &o) in vals.iter().zip(offs) {
+                    let d = i64::from(plane.at(r * plane.cols() + c + o as usize).unwrap());
+                    s += d;
+                    ss += d * d;
+                    st += i64::from(t) * d;
+                }
+                let var = ss - s * s / v;
+                let den = sq_t * (var.max(0) as u64).isqrt() as i64;
+                let ncc = if den > 0 {
+                    ((st << 15) / den).clamp(-32_768, 32_768)
+                } else {
+                    0
+                };
+                out[r * cols + c] = ncc as i32;
+            }
+        }
+        out
     }
 }
