@@ -47,7 +47,7 @@ mod top_down;
 
 pub use config::{
     ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck,
-    ACCEPT_CONFIDENCE_FLAT, ACCEPT_CONFIDENCE_STEREO,
+    ACCEPT_CONFIDENCE_FLAT, ACCEPT_CONFIDENCE_STEREO, MIN_NCC_STEREO,
 };
 pub use digest::{fnv1a, fnv1a_start, output_digest};
 pub use heading::{run_heading_search, HeadingFix, HeadingSearch, MAX_HEADINGS};
@@ -415,7 +415,7 @@ fn run_once<C: StageClock>(
                 }
                 if let Some((idx, r)) = best {
                     let trusted = cfg.refine.mode == RefineMode::Ncc
-                        || (r.score >= cfg.refine.min_ncc && !r.at_edge);
+                        || (r.score >= min_ncc(cfg, &inputs.depth) && !r.at_edge);
                     if trusted {
                         chosen = (idx, (r.col, r.row), r.score, FixPath::Ncc);
                     }
@@ -476,6 +476,15 @@ fn accept_threshold(cfg: &FixConfig, depth: &Depth<'_>) -> f32 {
         Depth::Flat => cfg.accept_confidence.max(cfg.accept_confidence_flat),
         Depth::Stereo(_) => cfg.accept_confidence.max(cfg.accept_confidence_stereo),
         Depth::Images(_) => cfg.accept_confidence,
+    }
+}
+
+/// The NCC score the refinement needs to be kept ([`RefineMode::Auto`]): lower with the
+/// fix's own stereo depth.
+fn min_ncc(cfg: &FixConfig, depth: &Depth<'_>) -> f32 {
+    match depth {
+        Depth::Stereo(_) => cfg.refine.min_ncc_stereo,
+        Depth::Flat | Depth::Images(_) => cfg.refine.min_ncc,
     }
 }
 
@@ -685,5 +694,20 @@ mod tests {
                 })
             );
         }
+    }
+
+    #[test]
+    fn stereo_keeps_weaker_ncc() {
+        let cfg = FixConfig::default();
+        assert_eq!(min_ncc(&cfg, &Depth::Flat), cfg.refine.min_ncc);
+        assert_eq!(min_ncc(&cfg, &Depth::Images([None; 4])), cfg.refine.min_ncc);
+        assert_eq!(
+            min_ncc(&cfg, &Depth::Stereo([None; 4])),
+            config::MIN_NCC_STEREO
+        );
+        assert!(MIN_NCC_STEREO < cfg.refine.min_ncc);
+        let mut bad = cfg;
+        bad.refine.min_ncc_stereo = f32::NAN;
+        assert!(bad.validate().is_err());
     }
 }

@@ -31,6 +31,7 @@ pub fn best_matcher() -> &'static str {
 /// `fix-p5-ra1`: the same fix with one setting of [`FixConfig`] changed, for tuning on the
 /// development seed; the report prints the whole configuration.
 pub const FIX_OPTIONS: &str = "-pN (coarse peaks refined), -mnN (smallest NCC kept, 0..1), \
+-mnsN (smallest NCC kept with the fix's own stereo depth), \
 -raN / -rbN (stereo: relief searched above / below the ground, metres), -srN (stereo: \
 ground range matched, metres), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
 cost gap per window pixel), -msN (stereo: support, neighbours of 8), -mdN (largest depth \
@@ -94,7 +95,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             .unwrap_or(part.len());
         let (key, value) = part.split_at(at);
         if ![
-            "p", "mn", "ra", "rb", "sr", "u", "mg", "ms", "md", "rw", "rm",
+            "p", "mn", "mns", "ra", "rb", "sr", "u", "mg", "ms", "md", "rw", "rm",
         ]
         .contains(&key)
         {
@@ -114,6 +115,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         match key {
             "p" => cfg.refine.peaks = whole(v)? as usize,
             "mn" => cfg.refine.min_ncc = v,
+            "mns" => cfg.refine.min_ncc_stereo = v,
             "ra" => m.relief_above_m = v,
             "rb" => m.relief_below_m = v,
             "sr" => m.max_ground_range_m = v,
