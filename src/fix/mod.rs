@@ -454,10 +454,7 @@ fn run_once<C: StageClock>(
     report.cnn_best_q15 = best_score;
     report.windows = windows as u32;
     report.candidates = cands;
-    report.error_bound_m = match path {
-        FixPath::Ncc => cfg.bounds.ncc_m,
-        FixPath::Cnn | FixPath::None => cfg.bounds.cnn_m,
-    };
+    report.error_bound_m = error_bound(cfg, path, score);
     report.status = if on_border {
         FixStatus::OnBorder
     } else if confidence < accept_threshold(cfg, &inputs.depth) {
@@ -476,6 +473,17 @@ fn accept_threshold(cfg: &FixConfig, depth: &Depth<'_>) -> f32 {
         Depth::Flat => cfg.accept_confidence.max(cfg.accept_confidence_flat),
         Depth::Stereo(_) => cfg.accept_confidence.max(cfg.accept_confidence_stereo),
         Depth::Images(_) => cfg.accept_confidence,
+    }
+}
+
+/// The stated error bound of a fix by `path` whose refinement scored `score`, metres. An NCC
+/// position scored below the common [`RefineConfig::min_ncc`] (kept by the lower stereo
+/// threshold, or by [`RefineMode::Ncc`]) is less sure than the fixes `ncc_m` was calibrated
+/// on: it states the CNN's bound.
+fn error_bound(cfg: &FixConfig, path: FixPath, score: f32) -> f32 {
+    match path {
+        FixPath::Ncc if score >= cfg.refine.min_ncc => cfg.bounds.ncc_m,
+        FixPath::Ncc | FixPath::Cnn | FixPath::None => cfg.bounds.cnn_m,
     }
 }
 
@@ -694,6 +702,17 @@ mod tests {
                 })
             );
         }
+    }
+
+    #[test]
+    fn weak_ncc_states_the_cnn_bound() {
+        let cfg = FixConfig::default();
+        let (ncc, cnn) = (cfg.bounds.ncc_m, cfg.bounds.cnn_m);
+        assert_eq!(error_bound(&cfg, FixPath::Ncc, 0.8), ncc);
+        assert_eq!(error_bound(&cfg, FixPath::Ncc, cfg.refine.min_ncc), ncc);
+        assert_eq!(error_bound(&cfg, FixPath::Ncc, MIN_NCC_STEREO), cnn);
+        assert_eq!(error_bound(&cfg, FixPath::Cnn, 0.9), cnn);
+        assert_eq!(error_bound(&cfg, FixPath::None, 0.0), cnn);
     }
 
     #[test]
