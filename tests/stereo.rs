@@ -349,14 +349,16 @@ fn bad_inputs_are_typed_errors() {
 #[test]
 fn sizes_and_work_of_the_default_rig() {
     let cam = CameraParams::default();
-    let s = stereo_buffer_sizes(&cam, &StereoParams::default()).unwrap();
+    let p = StereoParams::default();
+    let s = stereo_buffer_sizes(&cam, &p).unwrap();
     assert_eq!((s.out_width, s.out_height), (320, 180));
     assert!(
         s.max_disparities > 20 && s.max_disparities < 40,
         "{}",
         s.max_disparities
     );
-    assert_eq!(s.bytes, 2 * 320 * 11);
+    // Per image: 3 reduced rows and `2 rv + 2` filtered rows.
+    assert_eq!(s.bytes, 2 * 320 * (5 + 2 * usize::from(p.radius_rows_px)));
     // Disparities rounded up to groups of four lanes: column costs and aggregated costs on
     // `u32` words (one element of alignment slack), the right image's winners (costs and
     // indices) and disparity rows.
@@ -368,7 +370,14 @@ fn sizes_and_work_of_the_default_rig() {
 #[test]
 fn near_rows_are_the_coarser_rig_expanded_and_far_rows_the_working_size_rig() {
     let cam = CameraParams::default();
-    let p = StereoParams::default();
+    // Rows at the working size (`row_factor` 1, the window square), so that the rig on
+    // frames reduced by 4 is level 1.
+    let p = StereoParams {
+        row_factor: 1,
+        radius_rows_px: 3,
+        scale_error_m: 0.125,
+        ..StereoParams::default()
+    };
     let (l, r) = ground_pair(&cam, p.baseline_m, 0);
     let (lv, rv) = (
         ImageView::new(&l, 640, 360).unwrap(),
@@ -415,15 +424,38 @@ fn near_rows_are_the_coarser_rig_expanded_and_far_rows_the_working_size_rig() {
     // Far rows: exactly the working-size rig.
     assert_eq!(a[..start * 320], b[..start * 320]);
     // Near rows: the rig on frames reduced by 4, each pixel covering 2 x 2 working pixels,
-    // its disparity in working-size pixels.
+    // its disparity in working-size pixels; each of a coarse row's two working rows moved
+    // towards its own distance (a quarter of the way to the next coarse row's disparity,
+    // or along the flat ground): less than 1 working pixel, and closer to the flat ground
+    // of the working row than the coarse row's own value on average.
     let mut near = 0;
+    let (mut moved, mut gain) = (0u32, 0f64);
     for y in start..180 {
+        // Q4 at the working size: the mean of the two full rows, halved.
+        let truth = 16.0
+            * 0.25
+            * (flat_disparity(&cam, p.baseline_m, 2 * y)
+                + flat_disparity(&cam, p.baseline_m, 2 * y + 1)) as f64;
         for x in 0..320 {
-            let want = (u32::from(c[(y / 2) * 160 + x / 2]) * 2).min(65_535) as u16;
-            assert_eq!(a[y * 320 + x], want, "row {y} column {x}");
-            near += usize::from(want != 0);
+            let coarse = u32::from(c[(y / 2) * 160 + x / 2]) * 2;
+            let got = u32::from(a[y * 320 + x]);
+            assert_eq!(got == 0, coarse == 0, "row {y} column {x}");
+            if coarse == 0 {
+                continue;
+            }
+            assert!(
+                got.abs_diff(coarse) < 16,
+                "row {y} column {x}: {got} {coarse}"
+            );
+            moved += u32::from(got != coarse);
+            gain += (coarse as f64 - truth).abs() - (got as f64 - truth).abs();
+            near += 1;
         }
     }
+    assert!(
+        moved > near / 2 && gain > 0.0,
+        "{moved} of {near} moved, gain {gain}"
+    );
     assert!(near > 2_000, "{near}");
     // And they differ from the working-size rig's near rows (a coarser match).
     assert_ne!(a[start * 320..], b[start * 320..]);

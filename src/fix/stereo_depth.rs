@@ -88,7 +88,7 @@ struct Parts {
 
 impl Parts {
     fn new(s: &StereoConfig) -> Self {
-        let b = stereo_buffer_bound(s.max_width_px, s.matcher.radius_px, s.max_disparities);
+        let b = stereo_buffer_bound(s.max_width_px, s.matcher.radius_rows_px, s.max_disparities);
         let full_width = s.max_width_px * usize::from(s.matcher.downsample.max(1));
         Self {
             bytes: b.bytes.div_ceil(4),

@@ -8,6 +8,7 @@
 //! enters is summed over the window's rows once). The sums are exact, so a row's result
 //! does not depend on where the stream started or how the rows are cut into bands.
 
+use super::expand::{expand_row, Passed, RowPlace};
 use super::kernel::{
     add_groups, column, decide, right_groups, slide_min, threshold, update_columns, ColumnParams,
     LaneMin, UpdateCols, EDGE, UNIQUE,
@@ -25,10 +26,10 @@ const RB_NONE: u16 = u16::MAX;
 /// "No row" in the stream's state.
 const NONE: usize = usize::MAX;
 
-/// Bytes of the byte scratch for a working width `w` and radius `r`: per image a ring of 3
-/// reduced rows and a ring of `2r + 2` filtered rows.
-pub(crate) fn bytes_len(w: usize, r: usize) -> usize {
-    2 * w * (3 + 2 * r + 2)
+/// Bytes of the byte scratch for a working width `w` and radius down `rv`: per image a ring
+/// of 3 reduced rows and a ring of `2 rv + 2` filtered rows.
+pub(crate) fn bytes_len(w: usize, rv: usize) -> usize {
+    2 * w * (3 + 2 * rv + 2)
 }
 
 /// `u16` elements of the word scratch for a level width `w` and at most `groups` groups of
@@ -111,22 +112,23 @@ struct Rings<'b> {
     tags: &'b mut RingTags,
     w: usize,
     h: usize,
-    k: usize,
+    /// Reduction of the frames across and down.
+    k: (usize, usize),
     ring: usize,
     cap: u8,
 }
 
 impl<'b> Rings<'b> {
-    /// The rings of a level of width `w` (level image height `h`, frames reduced by `k`,
-    /// `ring = 2r + 2` filtered rows) in `bytes` ([`bytes_len`] of the working width bounds
-    /// every level's).
+    /// The rings of a level of width `w` (level image height `h`, frames reduced by `k`
+    /// across and down, `ring = 2 rv + 2` filtered rows) in `bytes` ([`bytes_len`] of the
+    /// working width bounds every level's).
     #[allow(clippy::too_many_arguments)]
     fn new(
         bytes: &'b mut [u8],
         tags: &'b mut RingTags,
         w: usize,
         h: usize,
-        k: usize,
+        k: (usize, usize),
         ring: usize,
         cap: u8,
     ) -> Self {
@@ -155,7 +157,7 @@ impl<'b> Rings<'b> {
         let w = self.w;
         for (buf, fr) in self.ds.iter_mut().zip(frames) {
             if let Some(o) = buf.get_mut(slot * w..slot * w + w) {
-                super::downsample_row(fr, self.k, q, o);
+                super::downsample_row_by(fr, self.k.0, self.k.1, q, o);
             }
         }
         if let Some(t) = self.tags.ds.get_mut(slot) {
@@ -893,12 +895,14 @@ pub struct StereoView<'a> {
 
 /// How rows are finished: level width `w`, speckle support, output kind, depth constant
 /// (working size) and the level (disparities are scaled by `2^level`, pixels expanded).
-struct Finish {
+struct Finish<'s> {
     w: usize,
     support: u8,
     mode: Output,
     depth_k: u32,
     level: usize,
+    /// The rig's levels (rows per level row, the flat-ground row scales).
+    scales: &'s super::scale::Scales,
 }
 
 /// Working rows `rows` (all of level `level`) of a band whose output starts at working row
@@ -1030,8 +1034,12 @@ impl<'a> StereoView<'a> {
         }
         let p = &rig.params;
         let r = usize::from(p.radius_px);
+        let rv = usize::from(p.radius_rows_px);
+        let m = rig.scales.rows_per(l);
         // Level rows holding the band's rows; rows `c0..end` must be matched.
-        let (qa, qb) = (band.rows.start >> l, ((band.rows.end - 1) >> l) + 1);
+        // `checked_div`: no panic path (`m >= 1`).
+        let div = |y: usize| y.checked_div(m).unwrap_or(0);
+        let (qa, qb) = (div(band.rows.start), div(band.rows.end - 1) + 1);
         let c0 = qa.saturating_sub(1).max(rig.scales.first_active_of(l));
         let end = (qb + 1).min(h);
         // Continue the stream when it holds (or is about to match) exactly what is needed.
@@ -1049,6 +1057,7 @@ impl<'a> StereoView<'a> {
             mode,
             depth_k: rig.depth_k,
             level: l,
+            scales: &rig.scales,
         };
         let Stream {
             next,
@@ -1062,8 +1071,11 @@ impl<'a> StereoView<'a> {
             tags,
             w,
             h,
-            usize::from(p.downsample) << l,
-            2 * r + 2,
+            (
+                usize::from(p.downsample) << l,
+                (usize::from(p.downsample) << l) * usize::from(p.row_factor),
+            ),
+            2 * rv + 2,
             p.prefilter_cap,
         );
         // The word scratch of this level: right winners, disparity ring, column sums (a
@@ -1078,7 +1090,7 @@ impl<'a> StereoView<'a> {
         let (_, wide, _) = unsafe { rest.align_to_mut::<u32>() };
         let (colsum, rest) = wide.split_at_mut((w * stride).min(wide.len()));
         let (aggw, _) = rest.split_at_mut(stride.min(rest.len()));
-        let area = ((2 * r + 1) * (2 * r + 1)) as u32;
+        let area = ((2 * r + 1) * (2 * rv + 1)) as u32;
         let oc = out_cost(p.prefilter_cap);
         let mut q_fin = qa;
         loop {
@@ -1108,7 +1120,7 @@ impl<'a> StereoView<'a> {
                 stride,
                 q,
                 (ga, gb),
-                r,
+                rv,
                 oc,
                 rep,
             );
@@ -1139,7 +1151,7 @@ impl<'a> StereoView<'a> {
 
 /// Brings the column sums to row `q` for groups `ga..gb`: groups the sums of row `q - 1`
 /// hold are updated by one row in and one row out, the others set up over the window's
-/// `2r + 1` rows; the groups kept move to the front of each column when the window would
+/// `2 rv + 1` rows; the groups kept move to the front of each column when the window would
 /// run past the stride.
 #[allow(clippy::too_many_arguments)]
 fn sums_to_row(
@@ -1150,12 +1162,12 @@ fn sums_to_row(
     stride: usize,
     q: usize,
     (ga, gb): (usize, usize),
-    r: usize,
+    rv: usize,
     oc: u16,
     rep: &mut BandReport,
 ) {
     let w = rings.w;
-    let ri = r as isize;
+    let ri = rv as isize;
     // Groups kept from row q - 1.
     let (ka, kb) = if st.row != NONE && st.row + 1 == q {
         (ga.max(st.g_lo), gb.min(st.g_hi))
@@ -1208,7 +1220,7 @@ fn sums_to_row(
                 oc,
             );
         }
-        rep.cost_updates += ((2 * r + 1) * w * 2 * n) as u64 / 2;
+        rep.cost_updates += ((2 * rv + 1) * w * 2 * n) as u64 / 2;
     }
     st.row = q;
     st.g_lo = ga;
@@ -1263,9 +1275,10 @@ fn finish(
         return;
     };
     let l = fin.level;
+    let m = fin.scales.rows_per(l);
     // The working rows of level row `q` inside the band's rows.
-    let ya = (q << l).max(band.rows.start);
-    let yb = ((q + 1) << l).min(band.rows.end);
+    let ya = (q * m).max(band.rows.start);
+    let yb = ((q + 1) * m).min(band.rows.end);
     if ya >= yb || ya < band.y0 {
         return;
     }
@@ -1274,17 +1287,52 @@ fn finish(
     let Some(o) = out.get_mut(first..first + bw) else {
         return;
     };
-    let valid = finish_row(row(q.checked_sub(1)), cur, row(Some(q + 1)), fin, o, rep);
-    // Working-size pixels with data: each level pixel covers 2^l x 2^l of them.
-    rep.valid += valid * ((yb - ya) << l) as u64;
-    // The other working rows of `q` repeat the first (later rows: after it in `out`).
-    let (head, tail) = out.split_at_mut((first + bw).min(out.len()));
-    let src = head.get(first..).unwrap_or(&[]);
-    for dst in tail.chunks_exact_mut(bw.max(1)).take(yb - ya - 1) {
-        for (d, &v) in dst.iter_mut().zip(src) {
-            *d = v;
-        }
+    let above = row(q.checked_sub(1));
+    let below = row(Some(q + 1));
+    let valid = finish_row(above, cur, below, fin, o, rep);
+    if m <= 1 {
+        // Working-size pixels with data: each level pixel covers 2^l across.
+        rep.valid += valid << l;
+        return;
     }
+    // The working rows of `q` from its disparities and its neighbours'
+    // ([`super::expand`]): the later rows first (the first row tells which pixels passed),
+    // then the first in place.
+    let place = |y: usize| RowPlace {
+        level: l,
+        rows: m,
+        offset: y - q * m,
+        flat_q15: fin.scales.row_scale_q15(l, q, y, false),
+    };
+    let side = |y: usize| {
+        if 2 * (y - q * m) + 1 < m {
+            above
+        } else {
+            below
+        }
+    };
+    let (head, tail) = out.split_at_mut((first + bw).min(out.len()));
+    let first_row = head.get_mut(first..).unwrap_or(&mut []);
+    let mut written = 0;
+    for (i, dst) in tail
+        .chunks_exact_mut(bw.max(1))
+        .take(yb - ya - 1)
+        .enumerate()
+    {
+        let y = ya + 1 + i;
+        let passed = Passed::Row(first_row, 1 << l);
+        written += expand_row(cur, side(y), passed, dst, &place(y), fin.mode, fin.depth_k);
+    }
+    written += expand_row(
+        cur,
+        side(ya),
+        Passed::InPlace,
+        first_row,
+        &place(ya),
+        fin.mode,
+        fin.depth_k,
+    );
+    rep.valid += written;
 }
 
 /// Rows `y0..y1` of the working-size output into `out` (`(y1 - y0) * width`, row-major),

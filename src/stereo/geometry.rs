@@ -13,8 +13,8 @@
 //! skipped. Set-up math (`f32`, once per rig and per row of a band).
 //!
 //! A rig has one [`RowRanges`] per matching level ([`super::scale`]): level `L` works on the
-//! frames reduced by `downsample * 2^L`, so its focal length, rows and disparities are
-//! `2^L` times smaller.
+//! frames reduced by `downsample * 2^L` (and `row_factor` times more down), so its focal
+//! length, columns and disparities are `2^L` times smaller, its rows `row_factor 2^L`.
 
 use super::StereoParams;
 use crate::camera::CameraParams;
@@ -23,6 +23,8 @@ use crate::camera::CameraParams;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RowRanges {
     focal: f32,
+    /// Focal length in this level's rows (`focal / row_factor`), pixels.
+    focal_rows: f32,
     cy: f32,
     height: usize,
     width: usize,
@@ -41,9 +43,11 @@ impl RowRanges {
     /// The ranges of matching level `level` (frames reduced by `downsample << level`).
     pub(crate) fn new(camera: &CameraParams, p: &StereoParams, level: u8) -> Self {
         let factor = u32::from(p.downsample) << level.min(8);
+        let rf = u32::from(p.row_factor.max(1));
         let width = camera.width_px.checked_div(factor).unwrap_or(0) as usize;
-        let height = camera.height_px.checked_div(factor).unwrap_or(0) as usize;
+        let height = camera.height_px.checked_div(factor * rf).unwrap_or(0) as usize;
         let k = factor as f32;
+        let kv = (factor * rf) as f32;
         let focal = camera.focal_px() / k;
         let m = p.attitude_margin_deg.to_radians();
         let t = camera.tilt_deg.to_radians();
@@ -53,7 +57,8 @@ impl RowRanges {
         let zmax = libm::sqrtf(p.max_ground_range_m * p.max_ground_range_m + depth_lim * depth_lim);
         Self {
             focal,
-            cy: 0.5 * camera.height_px as f32 / k,
+            focal_rows: camera.focal_px() / kv,
+            cy: 0.5 * camera.height_px as f32 / kv,
             height,
             width,
             fb: focal * p.baseline_m,
@@ -79,7 +84,7 @@ impl RowRanges {
     /// or above the horizon).
     pub fn quarter_px_depth_error(&self, v: usize, tilt_deg: f32) -> Option<f32> {
         let t = tilt_deg.to_radians();
-        let yn = (v as f32 - self.cy) / self.focal;
+        let yn = (v as f32 - self.cy) / self.focal_rows;
         let s = libm::sinf(t) + yn * libm::cosf(t);
         if s.is_nan() || s <= 0.0 {
             return None;
@@ -99,7 +104,7 @@ impl RowRanges {
         if v >= self.height {
             return None;
         }
-        let yn = (v as f32 + 0.5 - self.cy) / self.focal;
+        let yn = (v as f32 + 0.5 - self.cy) / self.focal_rows;
         let s0 = self.sin_t[0] + yn * self.cos_t[0];
         let s1 = self.sin_t[1] + yn * self.cos_t[1];
         let s_lo = s0.min(s1) - self.roll_term;
@@ -178,7 +183,11 @@ mod tests {
     #[test]
     fn flat_ground_inside_each_range_and_sky_skipped() {
         let cam = CameraParams::default();
-        let p = StereoParams::default();
+        // Rows at the working size (`row_factor` 1); `row_factor` 2 below.
+        let p = StereoParams {
+            row_factor: 1,
+            ..StereoParams::default()
+        };
         let r = RowRanges::new(&cam, &p, 0);
         let f = r.focal_px();
         assert!((f - 160.0).abs() < 1e-3);
@@ -207,5 +216,32 @@ mod tests {
         );
         assert!(r.row(0).is_none());
         assert!(r.max_disparities() >= hi - r.row(first).unwrap().0);
+        // Rows reduced twice more: half the rows, the same columns and focal length; row
+        // `q` covers working rows `2q, 2q + 1`, and the flat ground of both lies inside
+        // its range.
+        let r2 = RowRanges::new(&cam, &StereoParams { row_factor: 2, ..p }, 0);
+        assert_eq!(r2.size(), (320, 90));
+        assert_eq!(r2.focal_px(), f);
+        let mut rows = 0;
+        for q in 0..90 {
+            let Some((lo, hi)) = r2.row(q) else {
+                assert!(r.row(2 * q + 1).is_none() || r.row(2 * q).is_none(), "{q}");
+                continue;
+            };
+            for v in [2 * q, 2 * q + 1] {
+                let yn = (v as f32 + 0.5 - 90.0) / f;
+                let s = libm::sinf(t) + yn * libm::cosf(t);
+                let z = 2.0 / s;
+                if s > 0.0 && z * libm::cosf(t) < 35.0 {
+                    let d = f * 0.3 / z;
+                    assert!(
+                        lo as f32 + 0.5 <= d && d <= hi as f32 - 0.5,
+                        "{q} {v}: {lo} {d} {hi}"
+                    );
+                    rows += 1;
+                }
+            }
+        }
+        assert!(rows > 100, "{rows}");
     }
 }

@@ -8,10 +8,12 @@
 //! benchmark against OpenCV.
 //!
 //! Pipeline, per output row (all integer):
-//! 1. reduce both frames by `downsample` (box average; [`downsample_row`]) and pre-filter
-//!    with a horizontal Sobel clipped to `±prefilter_cap` ([`prefilter`]), robust to the
-//!    offset between the cameras;
-//! 2. cost `|L(x) - R(x - d)|` aggregated over a `(2r + 1) x (2r + 1)` box by running sums
+//! 1. reduce both frames by `downsample` (box average; [`downsample_row`]; rows by
+//!    `row_factor` times more, [`downsample_row_by`]) and pre-filter with a horizontal
+//!    Sobel clipped to `±prefilter_cap` ([`prefilter`]), robust to the offset between the
+//!    cameras;
+//! 2. cost `|L(x) - R(x - d)|` aggregated over a `(2r + 1) x (2 rv + 1)` box (`r`:
+//!    `radius_px`, `rv`: `radius_rows_px`) by running sums
 //!    (a vertical sum per column and disparity, updated by one row in and one row out, then
 //!    a horizontal running sum);
 //! 3. winner-take-all over the row's disparity range ([`geometry`]), rejected when the
@@ -22,7 +24,9 @@
 //!    the other diagonal) must agree within 1 px;
 //! 5. sub-pixel disparity by a parabola through the three costs ([`crate::peak`]), Q4;
 //! 6. speckle rejection: a disparity needs `min_support` of its 8 neighbours within 1 px;
-//! 7. depth `Z = f B / d`, `u16` millimetres along the optical axis, 0 = no data: the
+//! 7. rows matched at a coarser scale (or with `row_factor` 2) are expanded onto the
+//!    working rows they cover, each moved to its own distance (module `expand`);
+//! 8. depth `Z = f B / d`, `u16` millimetres along the optical axis, 0 = no data: the
 //!    layout [`crate::reproject::DepthView`] reads (at the reduced size,
 //!    [`StereoRig::output_params`]).
 //!
@@ -41,6 +45,7 @@
 //! ([`StereoRig::depth_band`]) costs `2r + 1` rows of set-up.
 
 mod band;
+mod expand;
 pub mod geometry;
 mod kernel;
 mod prefilter;
@@ -50,7 +55,7 @@ pub mod scale;
 mod swar;
 
 pub use band::{BandReport, StereoView};
-pub use prefilter::{downsample_row, prefilter};
+pub use prefilter::{downsample_row, downsample_row_by, prefilter};
 
 use crate::camera::{CameraError, CameraParams};
 use crate::image::ImageView;
@@ -73,8 +78,17 @@ pub struct StereoParams {
     pub baseline_m: f32,
     /// Reduction of both frames before matching (1..=4; 2: 640 x 360 -> 320 x 180).
     pub downsample: u8,
-    /// Aggregation radius `r`, pixels at the working size (1..=7; window `2r + 1` square).
+    /// Aggregation radius `r` across, pixels at the working size (1..=7; window `2r + 1`
+    /// wide).
     pub radius_px: u8,
+    /// Further reduction of the rows (1..=2): every level's frames are reduced by
+    /// `downsample * 2^L` across and `row_factor` times that down, so a matched row covers
+    /// `row_factor * 2^L` working rows (each taking the matched depth scaled to its own
+    /// flat-ground distance). 2 halves the rows matched; disparities keep their precision.
+    pub row_factor: u8,
+    /// Aggregation radius down, rows of the (row-reduced) level image (1..=7; window
+    /// `2 radius_rows_px + 1` tall).
+    pub radius_rows_px: u8,
     /// Clip of the Sobel pre-filter, gray levels (1..=63).
     pub prefilter_cap: u8,
     /// The runner-up cost must be at least this many percent above the winner's (0..=50).
@@ -115,6 +129,8 @@ impl Default for StereoParams {
             baseline_m: DEFAULT_BASELINE_M,
             downsample: 2,
             radius_px: 3,
+            row_factor: 1,
+            radius_rows_px: 3,
             prefilter_cap: 31,
             uniqueness_pct: 10,
             min_gap_per_px: 1,
@@ -315,18 +331,18 @@ pub fn stereo_buffer_sizes(
 }
 
 /// Upper bound of the scratch of any rig with a working width of at most `width` pixels,
-/// aggregation radius `radius_px` and column sums of at most `max_disparities` lanes
+/// aggregation radius down `radius_rows_px` and column sums of at most `max_disparities` lanes
 /// (rounded up to groups of four; a rig's [`StereoBufferSizes::max_disparities`]), for
 /// callers that size buffers before they know the rig ([`crate::fix::fix_buffer_sizes`]);
 /// the output fields give `width` and 0 rows.
 pub fn stereo_buffer_bound(
     width: usize,
-    radius_px: u8,
+    radius_rows_px: u8,
     max_disparities: usize,
 ) -> StereoBufferSizes {
     let groups = max_disparities.div_ceil(4);
     StereoBufferSizes {
-        bytes: band::bytes_len(width, usize::from(radius_px)),
+        bytes: band::bytes_len(width, usize::from(radius_rows_px)),
         words: band::words_len(width, groups),
         out_width: width,
         out_height: 0,
@@ -358,11 +374,16 @@ impl StereoRig {
         if !(p.baseline_m.is_finite() && p.baseline_m > 0.0 && p.baseline_m <= 10.0) {
             return Err(StereoError::Baseline);
         }
-        let checks: [(bool, &'static str); 11] = [
+        let checks: [(bool, &'static str); 13] = [
             ((1..=4).contains(&p.downsample), "downsample must be 1..=4"),
             (
                 (1..=MAX_RADIUS).contains(&p.radius_px),
                 "radius_px must be 1..=7",
+            ),
+            ((1..=2).contains(&p.row_factor), "row_factor must be 1 or 2"),
+            (
+                (1..=MAX_RADIUS).contains(&p.radius_rows_px),
+                "radius_rows_px must be 1..=7",
             ),
             (
                 (1..=63).contains(&p.prefilter_cap),
@@ -403,20 +424,26 @@ impl StereoRig {
             }
         }
         let r = usize::from(p.radius_px);
+        let rv = usize::from(p.radius_rows_px);
         // A level can be matched when its image leaves the window room, its disparity
         // indices fit the matcher's 16-bit halves (`band`), and its widest disparity leaves
         // columns to match.
         let usable = |g: &geometry::RowRanges| {
             let (w, h) = g.size();
             w >= 2 * r + 4
-                && h >= 2 * r + 2
+                && h >= 2 * rv + 2
                 && w <= 32_767
                 && g.max_disparities() > 0
                 && g.global_max() + 2 * r + 2 <= w
         };
         let level0 = geometry::RowRanges::new(camera, p, 0);
-        let (width, height) = level0.size();
-        if width < 2 * r + 4 || height < 2 * r + 2 {
+        let (width, level0_rows) = level0.size();
+        // The working size: the frames reduced by `downsample` both ways.
+        let height = camera
+            .height_px
+            .checked_div(u32::from(p.downsample))
+            .unwrap_or(0) as usize;
+        if width < 2 * r + 4 || level0_rows < 2 * rv + 2 {
             return Err(StereoError::TooSmall);
         }
         if width > 32_767 {
@@ -488,9 +515,9 @@ impl StereoRig {
     /// Scratch sizes.
     pub fn buffer_sizes(&self) -> StereoBufferSizes {
         let w = self.width;
-        let r = usize::from(self.params.radius_px);
+        let rv = usize::from(self.params.radius_rows_px);
         StereoBufferSizes {
-            bytes: band::bytes_len(w, r),
+            bytes: band::bytes_len(w, rv),
             words: self.words,
             out_width: w,
             out_height: self.height,

@@ -9,7 +9,26 @@ use crate::image::ImageView;
 /// `out` as is. The matcher's coarser levels ([`super::scale`]) reduce by
 /// `downsample * 2^level`.
 pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8]) {
-    let k = k.clamp(1, 16);
+    downsample_row_by(frame, k, k, row, out);
+}
+
+/// Row `row` of `frame` reduced by `kx` across and `ky` down (each 1..=16, clamped; box
+/// average of `kx x ky` pixels, rounded) into `out` (`frame.width() / kx` pixels; a shorter
+/// `out` gets its first pixels, a longer one keeps the rest). Rows past the reduced image
+/// leave `out` as is. [`downsample_row`] is the square case; the matcher's levels reduce by
+/// `downsample * 2^level` across and `row_factor` times that down.
+pub fn downsample_row_by(frame: &ImageView<'_>, kx: usize, ky: usize, row: usize, out: &mut [u8]) {
+    let (k, ky) = (kx.clamp(1, 16), ky.clamp(1, 16));
+    if ky != k {
+        if k == 2 && ky == 4 {
+            return reduce_2x4(frame, row, out);
+        }
+        if k % 4 == 0 && k * ky <= 256 {
+            return reduce_words(frame, k, ky, row, out);
+        }
+        let w = frame.width().checked_div(k).unwrap_or(0);
+        return reduce_rows(frame, k, ky, row, w, out);
+    }
     let w = frame.width().checked_div(k).unwrap_or(0);
     let row_at = |i: usize| frame.row(row * k + i);
     match k {
@@ -79,30 +98,124 @@ pub fn downsample_row(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8
                 }
             }
         }
-        _ => reduce_rows(frame, k, row, w, out),
+        _ => reduce_rows(frame, k, k, row, w, out),
     }
 }
 
-/// Box average of `k x k` pixels (any `k` in 5..=16) of rows `row k .. row k + k` into the
-/// first `w` pixels of `out`: column sums of the `k` rows, then `k` sums per output pixel.
-fn reduce_rows(frame: &ImageView<'_>, k: usize, row: usize, w: usize, out: &mut [u8]) {
-    let area = (k * k) as u32;
+/// [`downsample_row_by`] with `kx = 2`, `ky = 4` (the default rows of a `row_factor` 2
+/// rig): four output pixels from two words of each of the four rows, then one at a time.
+fn reduce_2x4(frame: &ImageView<'_>, row: usize, out: &mut [u8]) {
+    let w = frame.width() / 2;
+    let rows = [0, 1, 2, 3].map(|i| frame.row(row * 4 + i));
+    let [Some(a), Some(b), Some(c), Some(d)] = rows else {
+        return;
+    };
+    let n4 = w.min(out.len()) / 4;
+    let (head, _) = out.split_at_mut((4 * n4).min(out.len()));
+    let blocks = a
+        .chunks_exact(8)
+        .zip(b.chunks_exact(8))
+        .zip(c.chunks_exact(8).zip(d.chunks_exact(8)));
+    for (o, ((p, q), (r, t))) in head.chunks_exact_mut(4).zip(blocks) {
+        let half = |v: &[u8], i: usize| pair_sums(word(v.get(i..).unwrap_or(&[])));
+        // Lanes: the sums of pixels 0..4 (then 4..8) of the four rows, + 4; at most
+        // 8 * 255 + 4 per 16-bit lane.
+        let lo = (half(p, 0) + half(q, 0) + half(r, 0) + half(t, 0) + 0x0004_0004) >> 3;
+        let hi = (half(p, 4) + half(q, 4) + half(r, 4) + half(t, 4) + 0x0004_0004) >> 3;
+        if let [o0, o1, o2, o3] = o {
+            *o0 = lo as u8;
+            *o1 = (lo >> 16) as u8;
+            *o2 = hi as u8;
+            *o3 = (hi >> 16) as u8;
+        }
+    }
+    let tail = a
+        .chunks_exact(2)
+        .zip(b.chunks_exact(2))
+        .zip(c.chunks_exact(2).zip(d.chunks_exact(2)));
+    for (o, ((p, q), (r, t))) in out.iter_mut().zip(tail).take(w).skip(4 * n4) {
+        let s: u32 = [p, q, r, t]
+            .iter()
+            .flat_map(|v| v.iter())
+            .map(|&x| u32::from(x))
+            .sum();
+        *o = ((s + 4) / 8) as u8;
+    }
+}
+
+/// Box average of `k x ky` pixels (`k` across, `ky` down, each 1..=16) of rows
+/// `row ky .. row ky + ky` into the first `w` pixels of `out`.
+fn reduce_rows(frame: &ImageView<'_>, k: usize, ky: usize, row: usize, w: usize, out: &mut [u8]) {
+    let area = (k * ky) as u32;
     let out = match out.get_mut(..w.min(out.len())) {
         Some(o) => o,
         None => return,
     };
-    if (0..k).any(|i| frame.row(row * k + i).is_none()) {
+    if (0..ky).any(|i| frame.row(row * ky + i).is_none()) {
         return;
     }
     for (x, o) in out.iter_mut().enumerate() {
         let mut s = 0u32;
-        for i in 0..k {
-            if let Some(p) = frame.row(row * k + i).and_then(|r| r.get(x * k..x * k + k)) {
+        for i in 0..ky {
+            if let Some(p) = frame
+                .row(row * ky + i)
+                .and_then(|r| r.get(x * k..x * k + k))
+            {
                 s += p.iter().map(|&v| u32::from(v)).sum::<u32>();
             }
         }
-        // At most 16 * 16 * 255: no overflow.
-        *o = ((s + area / 2) / area) as u8;
+        // At most 16 * 16 * 255: no overflow (`checked_div`: no panic path; area >= 1).
+        *o = (s + area / 2).checked_div(area).unwrap_or(0) as u8;
+    }
+}
+
+/// [`downsample_row_by`] with `kx` a multiple of 4 (`kx ky <= 256`: the coarser levels of
+/// a `row_factor` 2 rig, 4 x 8 and 8 x 16): each output pixel sums whole words of each row
+/// in two `u16` lanes (at most `kx ky / 2 * 255`), 32 output pixels at a time.
+fn reduce_words(frame: &ImageView<'_>, kx: usize, ky: usize, row: usize, out: &mut [u8]) {
+    const CHUNK: usize = 32;
+    let w = frame.width().checked_div(kx).unwrap_or(0).min(out.len());
+    if (0..ky).any(|i| frame.row(row * ky + i).is_none()) {
+        return;
+    }
+    let area = (kx * ky) as u32;
+    let words = kx / 4;
+    let mut x0 = 0;
+    while x0 < w {
+        let n = CHUNK.min(w - x0);
+        let mut acc = [0u32; CHUNK];
+        for i in 0..ky {
+            let Some(r) = frame.row(row * ky + i) else {
+                return;
+            };
+            let src = r.get(x0 * kx..(x0 + n) * kx).unwrap_or(&[]);
+            // The two coarser levels' widths unrolled; any other multiple of 4 word by word.
+            match kx {
+                4 => {
+                    for (a, c) in acc.iter_mut().zip(src.chunks_exact(4)) {
+                        *a += pair_sums(word(c));
+                    }
+                }
+                8 => {
+                    for (a, c) in acc.iter_mut().zip(src.chunks_exact(8)) {
+                        let (lo, hi) = c.split_at(4);
+                        *a += pair_sums(word(lo)) + pair_sums(word(hi));
+                    }
+                }
+                _ => {
+                    for (a, px) in acc.iter_mut().zip(src.chunks_exact(kx)) {
+                        for c in px.chunks_exact(4).take(words) {
+                            *a += pair_sums(word(c));
+                        }
+                    }
+                }
+            }
+        }
+        for (o, &a) in out.iter_mut().skip(x0).zip(acc.iter()).take(n) {
+            let s = (a & 0xffff) + (a >> 16);
+            *o = (s + area / 2).checked_div(area).unwrap_or(0) as u8;
+        }
+        x0 += n;
     }
 }
 
@@ -320,15 +433,25 @@ mod tests {
     }
     // The plain per-pixel forms these replaced, kept as references.
     fn downsample_row_ref(frame: &ImageView<'_>, k: usize, row: usize, out: &mut [u8]) {
-        let k = k.clamp(1, 16);
+        downsample_row_by_ref(frame, k, k, row, out);
+    }
+
+    fn downsample_row_by_ref(
+        frame: &ImageView<'_>,
+        k: usize,
+        ky: usize,
+        row: usize,
+        out: &mut [u8],
+    ) {
+        let (k, ky) = (k.clamp(1, 16), ky.clamp(1, 16));
         let w = frame.width().checked_div(k).unwrap_or(0);
-        let area = (k * k) as u32;
-        if (0..k).any(|i| frame.row(row * k + i).is_none()) {
+        let area = (k * ky) as u32;
+        if (0..ky).any(|i| frame.row(row * ky + i).is_none()) {
             return;
         }
         for (i, o) in out.iter_mut().enumerate().take(w) {
             let mut s = 0u32;
-            for r in (0..k).filter_map(|j| frame.row(row * k + j)) {
+            for r in (0..ky).filter_map(|j| frame.row(row * ky + j)) {
                 if let Some(b) = r.get(i * k..i * k + k) {
                     s += b.iter().map(|&p| u32::from(p)).sum::<u32>();
                 }
@@ -376,6 +499,15 @@ mod tests {
                     downsample_row(&view, k, row, &mut a);
                     downsample_row_ref(&view, k, row, &mut b);
                     assert_eq!(a, b, "w {w} k {k} row {row}");
+                }
+            }
+            // Rows reduced more than columns (a `row_factor` 2 rig: 2 x 4, 4 x 8, 8 x 16).
+            for (k, ky) in [(1, 2), (2, 4), (4, 8), (8, 16), (3, 5)] {
+                for row in 0..=h / ky {
+                    let (mut a, mut b) = ([3u8; 40], [3u8; 40]);
+                    downsample_row_by(&view, k, ky, row, &mut a);
+                    downsample_row_by_ref(&view, k, ky, row, &mut b);
+                    assert_eq!(a, b, "w {w} k {k} x {ky} row {row}");
                 }
             }
             for cap in [1u8, 31, 63] {

@@ -3,6 +3,7 @@
 //! which check that [`super::band::run`] gives exactly its output and counts.
 
 use super::band::{BandReport, Output};
+use super::expand::{expand_row, Passed, RowPlace};
 use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
 use crate::image::ImageView;
 use crate::peak::parabola_min_offset;
@@ -38,7 +39,7 @@ struct Rings<'b> {
     f_tag: [usize; RING_MAX],
     w: usize,
     h: usize,
-    k: usize,
+    k: (usize, usize),
     ring: usize,
     cap: u8,
 }
@@ -52,7 +53,7 @@ impl Rings<'_> {
         let w = self.w;
         for (buf, fr) in self.ds.iter_mut().zip(frames) {
             if let Some(o) = buf.get_mut(slot * w..slot * w + w) {
-                super::downsample_row(fr, self.k, q, o);
+                super::downsample_row_by(fr, self.k.0, self.k.1, q, o);
             }
         }
         if let Some(t) = self.ds_tag.get_mut(slot) {
@@ -429,25 +430,44 @@ pub(super) fn run(
     // Every row at its level: coarse row `y >> l` of level `l`, expanded.
     let sc = rig.scales();
     let mut row_out = [0u16; 4096];
-    let mut y = y0;
+    // Rows above the first matched one only see sky (as the band's stream).
+    let mut y = y0.max(sc.first_active());
     while y < y1 {
         let l = sc.level_of_row(y);
         let mut yb = y + 1;
         while yb < y1 && sc.level_of_row(yb) == l {
             yb += 1;
         }
-        let (qa, qb) = (y >> l, ((yb - 1) >> l) + 1);
+        let m = sc.rows_per(l);
+        let (qa, qb) = (y / m, (yb - 1) / m + 1);
         let wl = sc.level(l).size().0;
-        let mut level_rows = |q: usize, vals: &[u16]| {
-            for yy in (q << l).max(y)..((q + 1) << l).min(yb) {
-                let o = &mut out[(yy - y0) * w..(yy - y0 + 1) * w];
-                for (x, &v) in vals.iter().enumerate() {
-                    for c in 0..1usize << l {
-                        o[(x << l) + c] = v;
+        let mut level_rows =
+            |q: usize, vals: &[u16], above: Option<&[u16]>, cur: &[u16], below: Option<&[u16]>| {
+                for yy in (q * m).max(y)..((q + 1) * m).min(yb) {
+                    let o = &mut out[(yy - y0) * w..(yy - y0 + 1) * w];
+                    if m == 1 {
+                        for (x, &v) in vals.iter().enumerate() {
+                            for c in 0..1usize << l {
+                                o[(x << l) + c] = v;
+                            }
+                        }
+                        continue;
                     }
+                    // Rows of a coarse level row: the shared expansion (not what is tested).
+                    let place = RowPlace {
+                        level: l,
+                        rows: m,
+                        offset: yy - q * m,
+                        flat_q15: sc.row_scale_q15(l, q, yy, false),
+                    };
+                    let nb = if 2 * (yy - q * m) + 1 < m {
+                        above
+                    } else {
+                        below
+                    };
+                    expand_row(cur, nb, Passed::Row(vals, 1), o, &place, mode, rig.depth_k);
                 }
-            }
-        };
+            };
         run_level(
             rig,
             l,
@@ -468,6 +488,10 @@ pub(super) fn run(
     Ok(rep)
 }
 
+/// Receives a finished level row: its number, its finished values (level width), and the
+/// raw disparities of the row above, the row itself and the row below.
+type EmitRow<'e> = dyn FnMut(usize, &[u16], Option<&[u16]>, &[u16], Option<&[u16]>) + 'e;
+
 /// Level `l`'s rows `qa..qb` (its own rows), each finished into `row_out` and handed to
 /// `emit` with its row number; `rep.valid` counts working-size pixels (as `emit` expands).
 #[allow(clippy::too_many_arguments)]
@@ -482,13 +506,14 @@ fn run_level(
     mode: Output,
     rep: &mut BandReport,
     row_out: &mut [u16],
-    emit: &mut dyn FnMut(usize, &[u16]),
+    emit: &mut EmitRow<'_>,
 ) -> Result<(), StereoError> {
     let geo = rig.scales().level(l);
     let (w, h) = geo.size();
     let p = &rig.params;
     let r = usize::from(p.radius_px);
-    let ring = 2 * r + 2;
+    let rv = usize::from(p.radius_rows_px);
+    let ring = 2 * rv + 2;
     let (ds_l, rest) = bytes.split_at_mut(3 * w);
     let (ds_r, rest) = rest.split_at_mut(3 * w);
     let (f_l, rest) = rest.split_at_mut(ring * w);
@@ -500,7 +525,10 @@ fn run_level(
         f_tag: [0; RING_MAX],
         w,
         h,
-        k: usize::from(p.downsample) << l,
+        k: (
+            usize::from(p.downsample) << l,
+            (usize::from(p.downsample) << l) * usize::from(p.row_factor),
+        ),
         ring,
         cap: p.prefilter_cap,
     };
@@ -524,7 +552,7 @@ fn run_level(
     let (disp, _) = rest.split_at_mut(3 * w);
     let mut disp_tag = [0usize; 3];
     let oc = out_cost(p.prefilter_cap);
-    let ri = r as isize;
+    let ri = rv as isize;
 
     colsum.fill(0);
     for k in c0 as isize - ri..=c0 as isize + ri {
@@ -532,8 +560,8 @@ fn run_level(
         let (lr, rr) = rings.rows(s);
         add_row(colsum, dn, dmin, lr, rr, oc);
     }
-    rep.cost_updates += ((2 * r + 1) * w * dn) as u64 / 2;
-    let area = ((2 * r + 1) * (2 * r + 1)) as u32;
+    rep.cost_updates += ((2 * rv + 1) * w * dn) as u64 / 2;
+    let area = ((2 * r + 1) * (2 * rv + 1)) as u32;
     let mut fin = |q: usize, disp: &[u16], tag: &[usize; 3], rep: &mut BandReport| {
         let row = |y: Option<usize>| -> Option<&[u16]> {
             let y = y?;
@@ -545,10 +573,11 @@ fn run_level(
         let Some(cur) = row(Some(q)) else {
             return;
         };
+        let (above, below) = (row(q.checked_sub(1)), row(Some(q + 1)));
         let valid = finish_row(
-            row(q.checked_sub(1)),
+            above,
             cur,
-            row(Some(q + 1)),
+            below,
             p.min_support,
             mode,
             rig.depth_k,
@@ -558,7 +587,7 @@ fn run_level(
         );
         // `valid` counts level pixels; the caller counts the expanded output.
         let _ = valid;
-        emit(q, row_out);
+        emit(q, row_out, above, cur, below);
     };
     for y in c0..c1 {
         if y > c0 {
@@ -707,7 +736,7 @@ mod tests {
         let (mut valid, mut cases, mut coarse) = (0u64, 0u32, [0u64; 2]);
         let (mut lbuf, mut rbuf) = ([0u8; FRAME_MAX], [0u8; FRAME_MAX]);
         let (mut new, mut old) = ([0u16; OUT_MAX], [0u16; OUT_MAX]);
-        for case in 0..24 {
+        for case in 0..32 {
             // Case 0: the default rig and settings at the default frame size.
             let (cam, p) = if case == 0 {
                 (CameraParams::default(), StereoParams::default())
@@ -723,6 +752,8 @@ mod tests {
                     baseline_m: 0.2 + 0.1 * rng.below(8) as f32,
                     downsample: 1 + rng.below(2) as u8,
                     radius_px: 1 + rng.below(7) as u8,
+                    row_factor: 1 + rng.below(2) as u8,
+                    radius_rows_px: 1 + rng.below(7) as u8,
                     prefilter_cap: [1, 15, 31, 63][rng.below(4) as usize],
                     uniqueness_pct: rng.below(30) as u8,
                     min_gap_per_px: rng.below(3) as u8,
@@ -806,6 +837,9 @@ mod tests {
             let p = StereoParams {
                 scale_levels: case as u8 % 3,
                 scale_error_m: [0.125, 0.3, 1.0, 0.2][case],
+                // Rows reduced by two more (a shorter window down) in two cases.
+                row_factor: 1 + (case as u8 & 1),
+                radius_rows_px: [3, 1, 3, 2][case],
                 ..StereoParams::default()
             };
             let rig = StereoRig::new(&cam, &p).unwrap();

@@ -11,12 +11,14 @@
 //! `StereoParams::scale_error_m` ([`RowRanges::quarter_px_depth_error`], at the coarse
 //! row's top edge, its farthest ground); far rows stay at the working size (level 0).
 //!
-//! Level `L` takes whole coarse rows: coarse row `q` covers working rows `q 2^L ..
-//! (q + 1) 2^L`, and its output is expanded onto them (each working pixel takes the value of
-//! the coarse pixel it lies in, disparities scaled to working-size pixels). Level `L` covers
-//! the working rows from `start[L]` (a multiple of `2^L`, the first coarse row from which
+//! Level `L` takes whole coarse rows: coarse row `q` covers working rows `q m .. (q + 1) m`
+//! (`m = row_factor 2^L`, [`Scales::rows_per`]), and its output is expanded onto them
+//! (module `expand`: each working pixel takes the disparity of the coarse pixel it lies
+//! in, moved to its own row's distance, scaled to working-size pixels). Level `L` covers
+//! the working rows from `start[L]` (a multiple of `m`, the first coarse row from which
 //! every coarse row down to the last whole one is eligible) to the last whole coarse row; a
-//! row takes the coarsest level that covers it. Set-up math (`f32`, once per rig).
+//! row takes the coarsest level that covers it. With `row_factor` 2 every level's rows are
+//! twice as tall (level 0 too). Set-up math (`f32`, once per rig).
 
 use super::geometry::RowRanges;
 use super::StereoParams;
@@ -41,7 +43,17 @@ pub struct Scales {
     first_of: [usize; LEVELS],
     /// Working height, rows.
     height: usize,
+    /// Working rows per row of level 0 (`StereoParams::row_factor`).
+    row_factor: usize,
+    /// Flat-ground slope of working row `y`'s centre ray: `s(y) = s0 + y ds`
+    /// (`s = sin t + yn cos t`, `h / s` its flat-ground depth), for the rows of a coarse
+    /// row ([`Scales::row_scale_q15`]).
+    s0: f32,
+    ds: f32,
 }
+
+/// Fractional bits of [`Scales::row_scale_q15`].
+pub const ROW_SCALE_BITS: u32 = 15;
 
 impl Scales {
     /// The levels of `camera` and `params` (`params` checked by the caller); `usable(l)`
@@ -53,7 +65,13 @@ impl Scales {
         usable: impl Fn(&RowRanges) -> bool,
     ) -> Self {
         let geo: [RowRanges; LEVELS] = [0u8, 1, 2].map(|l| RowRanges::new(camera, params, l));
-        let height = geo[0].size().1;
+        let rf = usize::from(params.row_factor.max(1));
+        let height = camera
+            .height_px
+            .checked_div(u32::from(params.downsample))
+            .unwrap_or(0) as usize;
+        // Working rows per row of level `l`.
+        let per = |l: usize| rf << l;
         let mut start = [height; LEVELS];
         let mut end = [height; LEVELS];
         start[0] = 0;
@@ -77,11 +95,16 @@ impl Scales {
                 q0 = q;
             }
             if let (Some(s), Some(e)) = (start.get_mut(l), end.get_mut(l)) {
-                *s = (q0 << l).min(height);
-                *e = (h_l << l).min(height);
+                *s = (q0 * per(l)).min(height);
+                *e = (h_l * per(l)).min(height);
             }
             used = l + 1;
         }
+        let k = camera.height_px as f32 / height.max(1) as f32;
+        let f = camera.focal_px() / k;
+        let t = camera.tilt_deg.to_radians();
+        let (st, ct) = (libm::sinf(t), libm::cosf(t));
+        let cy = 0.5 * height as f32;
         let mut me = Self {
             geo,
             used,
@@ -90,14 +113,50 @@ impl Scales {
             first: height,
             first_of: geo.map(|g| g.first_active()),
             height,
+            row_factor: rf,
+            s0: st + (0.5 - cy) / f * ct,
+            ds: ct / f,
         };
         me.first = (0..height)
             .find(|&y| {
                 let l = me.level_of_row(y);
-                me.level(l).row(y >> l).is_some()
+                let q = y.checked_div(me.rows_per(l)).unwrap_or(usize::MAX);
+                me.level(l).row(q).is_some()
             })
             .unwrap_or(height);
         me
+    }
+
+    /// Working rows per row of level `l` (`row_factor * 2^l`, at least 1).
+    pub fn rows_per(&self, l: usize) -> usize {
+        (self.row_factor << l.min(LEVELS)).max(1)
+    }
+
+    /// The scale, Q15 ([`ROW_SCALE_BITS`]), that takes the depth (`depth`) or the
+    /// disparity (`!depth`) matched for row `q` of level `l` to working row `y` inside it:
+    /// the ratio of the two rows' flat-ground depths (of their centre rays), so the
+    /// `rows_per(l)` working rows of a coarse row keep the ground's slope instead of
+    /// stepping. 1.0 where either row sees no ground, and where the ratio leaves
+    /// `[0.5, 2]` (next to the horizon). Set-up math, once per output row.
+    pub fn row_scale_q15(&self, l: usize, q: usize, y: usize, depth: bool) -> u32 {
+        let one = 1u32 << ROW_SCALE_BITS;
+        let m = self.rows_per(l);
+        if m <= 1 {
+            return one;
+        }
+        // Centre of the coarse row, in working rows (minus 0.5: `s0` is row 0's centre).
+        let c = (q as f32 + 0.5) * m as f32 - 0.5;
+        let s_q = self.s0 + c * self.ds;
+        let s_y = self.s0 + y as f32 * self.ds;
+        if !(s_q > 0.0 && s_y > 0.0) {
+            return one;
+        }
+        // Depth at y = depth at q * s_q / s_y; disparity the inverse.
+        let ratio = if depth { s_q / s_y } else { s_y / s_q };
+        if !(0.5..=2.0).contains(&ratio) {
+            return one;
+        }
+        libm::roundf(ratio * one as f32) as u32
     }
 
     /// The disparity ranges of level `l` (the working size for `l = 0` or out of range).
@@ -159,9 +218,10 @@ impl Scales {
         let mut y = a;
         while y < b.min(self.height) {
             let l = self.level_of_row(y);
-            let q = y >> l;
+            let m = self.rows_per(l).max(1);
+            let q = y.checked_div(m).unwrap_or(0);
             sum += self.level(l).row_work(q, q + 1);
-            y = (q + 1) << l;
+            y = (q + 1) * m;
         }
         sum
     }
@@ -174,9 +234,13 @@ mod tests {
     #[test]
     fn near_rows_go_coarse_only_where_a_quarter_pixel_stays_below_the_limit() {
         let cam = CameraParams::default();
-        let p = StereoParams::default();
+        let p = StereoParams {
+            row_factor: 1,
+            scale_error_m: 0.125,
+            ..StereoParams::default()
+        };
         let s = Scales::new(&cam, &p, |_| true);
-        assert!(s.used() >= 2, "the default rig uses a coarser level");
+        assert!(s.used() >= 2, "the rig uses a coarser level");
         let (a, b) = s.rows_of_level(1);
         assert!(a < b && b == 180 && a % 2 == 0, "{a} {b}");
         // Every working row of level 1 has its quarter-pixel error (level 1) within the
@@ -222,6 +286,7 @@ mod tests {
         let p = StereoParams {
             scale_levels: 2,
             scale_error_m: 0.3,
+            row_factor: 1,
             ..StereoParams::default()
         };
         let s = Scales::new(&cam, &p, |_| true);
@@ -240,5 +305,51 @@ mod tests {
         let t = Scales::new(&cam, &p, |g| g.size().0 >= 160);
         assert_eq!(t.used(), 2);
         assert_eq!(t.rows_of_level(2), (180, 180));
+    }
+
+    #[test]
+    fn reduced_rows_cover_their_working_rows_at_their_own_ground_distance() {
+        let cam = CameraParams::default();
+        let p = StereoParams {
+            row_factor: 2,
+            ..StereoParams::default()
+        };
+        let s = Scales::new(&cam, &p, |_| true);
+        assert_eq!((s.rows_per(0), s.rows_per(1), s.rows_per(2)), (2, 4, 8));
+        assert_eq!(s.level(0).size(), (320, 90));
+        // Every working row has a level; its level row lies inside that level's image.
+        for y in s.first_active()..180 {
+            let l = s.level_of_row(y);
+            assert!(s.level(l).row(y / s.rows_per(l)).is_some(), "{y}");
+        }
+        let (a1, _) = s.rows_of_level(1);
+        assert!(a1 % 4 == 0 && a1 < 180, "{a1}");
+        // The scale takes a coarse row's flat-ground depth to each of its working rows'.
+        let t = cam.tilt_deg.to_radians();
+        let z = |c: f32| 2.0 / (libm::sinf(t) + (c - 90.0) / 160.0 * libm::cosf(t));
+        let one = (1u32 << ROW_SCALE_BITS) as f32;
+        let mut checked = 0;
+        for l in 0..s.used() {
+            let (a, b) = s.rows_of_level(l);
+            let a = a.max(s.first_active());
+            let m = s.rows_per(l);
+            for y in a..b {
+                let q = y / m;
+                let zq = z((q as f32 + 0.5) * m as f32);
+                let zy = z(y as f32 + 0.5);
+                if !(zq > 0.0 && zy > 0.0 && zq < 50.0) {
+                    continue;
+                }
+                let f = s.row_scale_q15(l, q, y, true) as f32 / one;
+                assert!((zq * f / zy - 1.0).abs() < 2e-3, "{l} {y}: {zq} {f} {zy}");
+                let g = s.row_scale_q15(l, q, y, false) as f32 / one;
+                assert!((f * g - 1.0).abs() < 1e-3, "{f} {g}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 100, "{checked}");
+        // At the working size (level 0 of a `row_factor` 1 rig) the scale is 1.
+        let s1 = Scales::new(&cam, &StereoParams { row_factor: 1, ..p }, |_| true);
+        assert_eq!(s1.row_scale_q15(0, 100, 100, true), 1 << ROW_SCALE_BITS);
     }
 }

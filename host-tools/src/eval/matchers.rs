@@ -33,7 +33,9 @@ pub fn best_matcher() -> &'static str {
 pub const FIX_OPTIONS: &str = "-pN (coarse peaks refined), -mnN (smallest NCC kept, 0..1), \
 -mnsN (smallest NCC kept with the fix's own stereo depth), \
 -raN / -rbN (stereo: relief searched above / below the ground, metres), -srN (stereo: \
-ground range matched, metres), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
+ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -rrN (stereo: \
+window radius down, rows), -seN (stereo: coarser scale where a quarter pixel moves the ground \
+at most N metres), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
 cost gap per window pixel), -msN (stereo: support, neighbours of 8), -mdN (largest depth \
 reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks)";
 
@@ -95,7 +97,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             .unwrap_or(part.len());
         let (key, value) = part.split_at(at);
         if ![
-            "p", "mn", "mns", "ra", "rb", "sr", "u", "mg", "ms", "md", "rw", "rm",
+            "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "u", "mg", "ms", "md", "rw", "rm",
         ]
         .contains(&key)
         {
@@ -119,6 +121,9 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "ra" => m.relief_above_m = v,
             "rb" => m.relief_below_m = v,
             "sr" => m.max_ground_range_m = v,
+            "se" => m.scale_error_m = v,
+            "rf" => m.row_factor = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
+            "rr" => m.radius_rows_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             // Out of u8 range: u8::MAX, refused below by the rig's check.
             "u" => m.uniqueness_pct = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "mg" => m.min_gap_per_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
