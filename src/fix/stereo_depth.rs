@@ -5,8 +5,8 @@
 //! time; each view's bands are one stream of the matcher (no row is matched twice). The
 //! frames are reprojected at full resolution; each full-resolution pixel takes the depth of
 //! the working-size pixel it lies in (`StereoParams::downsample`); rows the matcher took at
-//! a coarser scale ([`crate::stereo::scale`]) come expanded to the working size, so a frame
-//! pixel takes the depth of the coarse pixel it lies in.
+//! a coarser scale ([`crate::stereo::scale`]) come expanded to the working size, each
+//! working row at its own distance (interpolated towards the next coarse row).
 //!
 //! Memory: inside the fix's work area after the range accumulator
 //! ([`stereo_work_words`]): the matcher's byte and `u16` scratch for a working width of at
