@@ -62,9 +62,53 @@ pub fn parabola_min_offset(l: i32, c: i32, r: i32, one: i32) -> i32 {
     q.clamp(-one / 2, one / 2)
 }
 
+/// Sub-sample offset of the minimum of three integer costs `l`, `c`, `r` at -1, 0, +1 by
+/// equiangular (V-shaped) line fitting: the two lines through the centre with opposite
+/// slopes, the steeper side's slope, meet at `(l - r) / (2 (max(l, r) - c))`. The usual
+/// fit for sums of absolute differences, whose cost is V-shaped around the true shift (the
+/// parabola biases it towards whole samples). In units of `1 / one` (`one` in 1..=64),
+/// rounded, in `[-one/2, one/2]`; 0 when `c` is not below both neighbours' larger one or
+/// the costs are out of range (`|cost| >= 2^24`).
+pub fn equiangular_min_offset(l: i32, c: i32, r: i32, one: i32) -> i32 {
+    const LIM: i32 = 1 << 24;
+    if !(1..=64).contains(&one) || l.abs() >= LIM || c.abs() >= LIM || r.abs() >= LIM {
+        return 0;
+    }
+    let den = l.max(r) - c;
+    if den <= 0 {
+        return 0;
+    }
+    let num = (l - r) * one;
+    let den2 = 2 * den;
+    let q = if num >= 0 {
+        (num + den) / den2
+    } else {
+        -((-num + den) / den2)
+    };
+    q.clamp(-one / 2, one / 2)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn equiangular_fit_finds_the_apex_of_a_sampled_v() {
+        // |x - 0.25| * 64 sampled at -1, 0, 1: apex at +0.25 = 4/16.
+        let v = |x: f32| ((x - 0.25).abs() * 64.0) as i32;
+        assert_eq!(equiangular_min_offset(v(-1.0), v(0.0), v(1.0), 16), 4);
+        // The parabola through the same samples is pulled towards the whole sample.
+        let p = parabola_min_offset(v(-1.0), v(0.0), v(1.0), 16);
+        assert!(p < 4, "{p}");
+        let w = |x: f32| ((x + 0.375).abs() * 64.0) as i32;
+        assert_eq!(equiangular_min_offset(w(-1.0), w(0.0), w(1.0), 16), -6);
+        // Flat or not a minimum: 0; bounded to half a sample.
+        assert_eq!(equiangular_min_offset(5, 5, 5, 16), 0);
+        assert_eq!(equiangular_min_offset(1, 5, 2, 16), 0);
+        assert_eq!(equiangular_min_offset(100, 0, 0, 16), 8);
+        assert_eq!(equiangular_min_offset(0, 0, 100, 16), -8);
+        assert_eq!(equiangular_min_offset(1 << 25, 0, 0, 16), 0);
+    }
 
     #[test]
     fn vertex_of_a_sampled_parabola() {

@@ -14,9 +14,10 @@ use super::kernel::{
     LaneMin, UpdateCols, EDGE, UNIQUE,
 };
 use super::swar::{absdiff_u8x4, min2_u16x2, split_u8x4, word};
-use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
+use super::{
+    Side, StereoBuffer, StereoError, StereoRig, SubPixel, DISPARITY_FRAC_BITS, MAX_RADIUS,
+};
 use crate::image::ImageView;
-use crate::peak::parabola_min_offset;
 use crate::reproject::{classify_frame, FrameStatus};
 
 const ONE_Q: u16 = 1 << DISPARITY_FRAC_BITS;
@@ -394,6 +395,7 @@ struct RowMatch {
     uniq: u32,
     gap: u32,
     lr: bool,
+    sub: SubPixel,
 }
 
 /// Added to the row's aggregated costs of indices outside its range (and, for one pass, to
@@ -540,12 +542,12 @@ fn right_first_columns(
 /// then the sub-pixel disparity (Q4, at least 1) or `None`.
 #[cold]
 #[inline(never)]
-fn accept(ap: &[u32], key: u32, prm: &ColumnParams, d0: usize) -> Option<u16> {
+fn accept(ap: &[u32], key: u32, prm: &ColumnParams, d0: usize, sub: SubPixel) -> Option<u16> {
     let (best, j) = (key >> 16, (key & 0xffff) as usize);
     if j == 0 || runner_up(ap, j) < threshold(best, prm) {
         return None;
     }
-    let frac = parabola_min_offset(
+    let frac = sub.offset(
         lane_cost(ap, j - 1) as i32,
         best as i32,
         lane_cost(ap, j + 1) as i32,
@@ -680,7 +682,7 @@ fn match_row(
         match res {
             EDGE => edge += 1,
             UNIQUE => uniq += 1,
-            key => match accept(ap, key, &prm, dmin) {
+            key => match accept(ap, key, &prm, dmin, m.sub) {
                 Some(q) => {
                     if let Some(o) = disp.get_mut(x) {
                         *o = q;
@@ -1136,6 +1138,7 @@ impl<'a> StereoView<'a> {
                 uniq: u32::from(p.uniqueness_pct),
                 gap: area * u32::from(p.min_gap_per_px),
                 lr: p.lr_check,
+                sub: p.subpixel,
             };
             if let Some(drow) = disp.get_mut((q % 3) * w..(q % 3) * w + w) {
                 match_row(&m, colsum, aggw, rb, drow, rep);

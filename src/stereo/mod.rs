@@ -98,6 +98,8 @@ pub struct StereoParams {
     pub min_gap_per_px: u8,
     /// Left-right consistency check (1 px tolerance).
     pub lr_check: bool,
+    /// The sub-pixel fit.
+    pub subpixel: SubPixel,
     /// Speckle rejection: neighbours (of 8) that must agree within 1 px (0: off; 0..=8).
     pub min_support: u8,
     /// Largest ground distance from the rover that matters, metres (the top-down square's
@@ -137,6 +139,7 @@ impl Default for StereoParams {
             uniqueness_pct: 10,
             min_gap_per_px: 1,
             lr_check: true,
+            subpixel: SubPixel::Parabola,
             min_support: 3,
             max_ground_range_m: 35.355_34,
             relief_above_m: 0.5,
@@ -144,6 +147,29 @@ impl Default for StereoParams {
             attitude_margin_deg: 2.0,
             scale_levels: 2,
             scale_error_m: 0.175,
+        }
+    }
+}
+
+/// How the sub-pixel disparity is fitted through the winner's cost and its two
+/// neighbours' ([`crate::peak`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SubPixel {
+    /// The parabola's vertex ([`crate::peak::parabola_min_offset`]).
+    Parabola,
+    /// Equiangular (V) line fitting ([`crate::peak::equiangular_min_offset`]), the fit of
+    /// sums of absolute differences.
+    Equiangular,
+}
+
+impl SubPixel {
+    /// The offset of the minimum of costs `l`, `c`, `r` in units of `1 / one`.
+    #[inline(always)]
+    pub(crate) fn offset(self, l: i32, c: i32, r: i32, one: i32) -> i32 {
+        match self {
+            SubPixel::Parabola => crate::peak::parabola_min_offset(l, c, r, one),
+            SubPixel::Equiangular => crate::peak::equiangular_min_offset(l, c, r, one),
         }
     }
 }

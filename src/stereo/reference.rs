@@ -6,7 +6,6 @@ use super::band::{BandReport, Output};
 use super::expand::{expand_row, Passed, RowPlace};
 use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
 use crate::image::ImageView;
-use crate::peak::parabola_min_offset;
 use crate::reproject::{classify_frame, FrameStatus};
 
 const ONE_Q: u16 = 1 << DISPARITY_FRAC_BITS;
@@ -178,6 +177,7 @@ struct RowMatch {
     uniq: u32,
     gap: u32,
     lr: bool,
+    sub: super::SubPixel,
 }
 
 /// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none).
@@ -270,7 +270,7 @@ fn match_row(
         let (Some(&l), Some(&r)) = (agg.get(bi - 1), agg.get(bi + 1)) else {
             continue;
         };
-        let off = parabola_min_offset(
+        let off = m.sub.offset(
             i32::from(l),
             i32::from(best),
             i32::from(r),
@@ -609,6 +609,7 @@ fn run_level(
                 uniq: u32::from(p.uniqueness_pct),
                 gap: area * u32::from(p.min_gap_per_px),
                 lr: p.lr_check,
+                sub: p.subpixel,
             };
             let drow = &mut disp[(y % 3) * w..(y % 3) * w + w];
             match_row(&m, colsum, agg, rbc, rbd, drow, rep);
@@ -628,7 +629,7 @@ fn run_level(
 #[cfg(test)]
 mod tests {
     use super::super::band;
-    use super::super::{StereoParams, StereoRig};
+    use super::super::{StereoParams, StereoRig, SubPixel};
     use super::{ref_words_len, BandReport, Output};
     use crate::camera::CameraParams;
     use crate::image::ImageView;
@@ -758,6 +759,7 @@ mod tests {
                     uniqueness_pct: rng.below(30) as u8,
                     min_gap_per_px: rng.below(3) as u8,
                     lr_check: rng.below(4) != 0,
+                    subpixel: [SubPixel::Parabola, SubPixel::Equiangular][rng.below(2) as usize],
                     min_support: rng.below(5) as u8,
                     relief_below_m: 0.5 + 0.5 * rng.below(4) as f32,
                     scale_levels: rng.below(3) as u8,

@@ -35,7 +35,7 @@ pub const FIX_OPTIONS: &str = "-pN (coarse peaks refined), -mnN (smallest NCC ke
 -raN / -rbN (stereo: relief searched above / below the ground, metres), -srN (stereo: \
 ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -rrN (stereo: \
 window radius down, rows), -seN (stereo: coarser scale where a quarter pixel moves the ground \
-at most N metres), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
+at most N metres), -spN (stereo sub-pixel fit: 0 parabola, 1 equiangular), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
 cost gap per window pixel), -msN (stereo: support, neighbours of 8), -mdN (largest depth \
 reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks)";
 
@@ -97,7 +97,8 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             .unwrap_or(part.len());
         let (key, value) = part.split_at(at);
         if ![
-            "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "u", "mg", "ms", "md", "rw", "rm",
+            "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
+            "rw", "rm",
         ]
         .contains(&key)
         {
@@ -122,6 +123,13 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "rb" => m.relief_below_m = v,
             "sr" => m.max_ground_range_m = v,
             "se" => m.scale_error_m = v,
+            "sp" => m.subpixel = match whole(v)? {
+                0 => orbfix::stereo::SubPixel::Parabola,
+                1 => orbfix::stereo::SubPixel::Equiangular,
+                _ => bail!(
+                    "option '{part}' of matcher '{name}': sp is 0 (parabola) or 1 (equiangular)"
+                ),
+            },
             "rf" => m.row_factor = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "rr" => m.radius_rows_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             // Out of u8 range: u8::MAX, refused below by the rig's check.
