@@ -72,6 +72,16 @@ pub struct Args {
     /// there moves its flat ground by at most this, metres.
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().scale_error_m)]
     scale_error: f32,
+    /// stereo: rows reduced this many times more than columns (1 or 2; docs/stereo.md,
+    /// "Rows reduced twice").
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().row_factor)]
+    row_factor: u8,
+    /// stereo: aggregation radius down, rows of the level image (1..=7).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().radius_rows_px)]
+    radius_rows: u8,
+    /// stereo: sub-pixel fit of the winner's disparity.
+    #[arg(long, value_enum, default_value_t = SubPixelArg::from(orbfix::stereo::StereoParams::default().subpixel))]
+    subpixel: SubPixelArg,
     /// stereo: output band of the core, rows.
     #[arg(long, default_value_t = 16)]
     band_rows: usize,
@@ -138,6 +148,9 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         relief_below_m: args.relief_below,
         scale_levels: args.scale_levels,
         scale_error_m: args.scale_error,
+        row_factor: args.row_factor,
+        radius_rows_px: args.radius_rows,
+        subpixel: args.subpixel.into(),
         ..Default::default()
     };
     let opts = orbfix_host::stereo_bench::StereoBenchOptions {
@@ -453,4 +466,31 @@ fn bench_reproject(args: &Args) -> anyhow::Result<()> {
         reps: args.reps,
         ..Default::default()
     })
+}
+
+/// `--subpixel`: the core's sub-pixel fit ([`orbfix::stereo::SubPixel`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SubPixelArg {
+    /// The parabola through the winner's cost and its neighbours'.
+    Parabola,
+    /// Equiangular (V) line fitting.
+    Equiangular,
+}
+
+impl From<orbfix::stereo::SubPixel> for SubPixelArg {
+    fn from(s: orbfix::stereo::SubPixel) -> Self {
+        match s {
+            orbfix::stereo::SubPixel::Parabola => Self::Parabola,
+            orbfix::stereo::SubPixel::Equiangular => Self::Equiangular,
+        }
+    }
+}
+
+impl From<SubPixelArg> for orbfix::stereo::SubPixel {
+    fn from(s: SubPixelArg) -> Self {
+        match s {
+            SubPixelArg::Parabola => Self::Parabola,
+            SubPixelArg::Equiangular => Self::Equiangular,
+        }
+    }
 }

@@ -123,13 +123,15 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "rb" => m.relief_below_m = v,
             "sr" => m.max_ground_range_m = v,
             "se" => m.scale_error_m = v,
-            "sp" => m.subpixel = match whole(v)? {
-                0 => orbfix::stereo::SubPixel::Parabola,
-                1 => orbfix::stereo::SubPixel::Equiangular,
-                _ => bail!(
+            "sp" => {
+                m.subpixel = match whole(v)? {
+                    0 => orbfix::stereo::SubPixel::Parabola,
+                    1 => orbfix::stereo::SubPixel::Equiangular,
+                    _ => bail!(
                     "option '{part}' of matcher '{name}': sp is 0 (parabola) or 1 (equiangular)"
                 ),
-            },
+                }
+            }
             "rf" => m.row_factor = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "rr" => m.radius_rows_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             // Out of u8 range: u8::MAX, refused below by the rig's check.
