@@ -43,23 +43,13 @@ pub fn peak_offset_2d<F: Fn(usize, usize) -> Option<f32>>(at: F, c: usize, r: us
 /// only: the costs must satisfy `|l|, |c|, |r| < 2^24` and `one` lie in `1..=64` (outside
 /// those, 0).
 pub fn parabola_min_offset(l: i32, c: i32, r: i32, one: i32) -> i32 {
-    const LIM: i32 = 1 << 24;
-    if !(1..=64).contains(&one) || l.abs() >= LIM || c.abs() >= LIM || r.abs() >= LIM {
-        return 0;
-    }
-    let den = l + r - 2 * c;
-    if den <= 0 {
-        return 0;
-    }
-    // (l - r) / (2 den) samples, in units of 1/one, rounded half away from zero.
-    let num = (l - r) * one;
-    let den2 = 2 * den;
-    let q = if num >= 0 {
-        (num + den) / den2
-    } else {
-        -((-num + den) / den2)
-    };
-    q.clamp(-one / 2, one / 2)
+    min_offset(
+        l,
+        c,
+        r,
+        one,
+        l.wrapping_add(r).wrapping_sub(c.wrapping_mul(2)),
+    )
 }
 
 /// Sub-sample offset of the minimum of three integer costs `l`, `c`, `r` at -1, 0, +1 by
@@ -70,11 +60,18 @@ pub fn parabola_min_offset(l: i32, c: i32, r: i32, one: i32) -> i32 {
 /// rounded, in `[-one/2, one/2]`; 0 when `c` is not below both neighbours' larger one or
 /// the costs are out of range (`|cost| >= 2^24`).
 pub fn equiangular_min_offset(l: i32, c: i32, r: i32, one: i32) -> i32 {
+    min_offset(l, c, r, one, l.max(r).wrapping_sub(c))
+}
+
+/// `(l - r) / (2 den)` samples, in units of `1 / one`, rounded half away from zero and
+/// clamped to half a sample; 0 when `den <= 0` or the inputs are out of range (the two
+/// fits above differ only in `den`, computed wrapping: it is used only in range).
+#[inline(always)]
+fn min_offset(l: i32, c: i32, r: i32, one: i32, den: i32) -> i32 {
     const LIM: i32 = 1 << 24;
     if !(1..=64).contains(&one) || l.abs() >= LIM || c.abs() >= LIM || r.abs() >= LIM {
         return 0;
     }
-    let den = l.max(r) - c;
     if den <= 0 {
         return 0;
     }
