@@ -78,8 +78,17 @@ fn setup(params: &StereoParams) -> Run {
 
 #[test]
 fn flat_ground_disparity_and_depth() {
+    // Every column decided, and every other one (the default) with the ones between filled.
+    for column_step in [1, 2] {
+        flat_ground_with(StereoParams {
+            column_step,
+            ..StereoParams::default()
+        });
+    }
+}
+
+fn flat_ground_with(p: StereoParams) {
     let cam = CameraParams::default();
-    let p = StereoParams::default();
     let (l, r) = ground_pair(&cam, p.baseline_m, 0);
     let (lv, rv) = (
         ImageView::new(&l, 640, 360).unwrap(),
@@ -274,14 +283,25 @@ fn bad_inputs_are_typed_errors() {
         assert_eq!(StereoRig::new(&cam, &p).err(), Some(StereoError::Baseline));
         assert!(stereo_buffer_sizes(&cam, &p).is_err());
     }
-    let p = StereoParams {
-        radius_px: 0,
-        ..StereoParams::default()
-    };
-    assert!(matches!(
-        StereoRig::new(&cam, &p),
-        Err(StereoError::Param(_))
-    ));
+    for bad in [
+        StereoParams {
+            radius_px: 0,
+            ..StereoParams::default()
+        },
+        StereoParams {
+            column_step: 0,
+            ..StereoParams::default()
+        },
+        StereoParams {
+            column_step: 3,
+            ..StereoParams::default()
+        },
+    ] {
+        assert!(matches!(
+            StereoRig::new(&cam, &bad),
+            Err(StereoError::Param(_))
+        ));
+    }
 
     let p = StereoParams::default();
     let mut run = setup(&p);

@@ -10,8 +10,8 @@
 
 use super::expand::{expand_row, Passed, RowPlace};
 use super::kernel::{
-    add_groups, column, decide, right_groups, slide_min, threshold, update_columns, ColumnParams,
-    LaneMin, UpdateCols, EDGE, UNIQUE,
+    add_groups, column, decide, right_groups, slide, slide_min, threshold, update_columns,
+    ColumnParams, LaneMin, UpdateCols, EDGE, UNIQUE,
 };
 use super::swar::{absdiff_u8x4, min2_u16x2, split_u8x4, word};
 use super::{
@@ -396,6 +396,8 @@ struct RowMatch {
     gap: u32,
     lr: bool,
     sub: SubPixel,
+    /// Columns decided: every one (1) or every other one (2, `StereoParams::column_step`).
+    step: usize,
 }
 
 /// Added to the row's aggregated costs of indices outside its range (and, for one pass, to
@@ -640,10 +642,36 @@ fn match_row(
         gap: m.gap,
     };
     let (mut edge, mut uniq) = (0u64, 0u64);
+    let skip_odd = m.step == 2;
     for x in r..w - r {
         let ap_ptr = ap.as_mut_ptr();
         // The largest index whose window lies inside the right image (x >= d + r).
         prm.lim = (x - r) as i32 - dmin as i32;
+        // A column whose disparity is not decided (`column_step` 2): the window slides on.
+        if skip_odd && (x - r) & 1 == 1 {
+            if lr_on && x >= x_steady {
+                // The right winners' pointers move on as for a decided column.
+                if x == x_steady {
+                    let b = x - dmin - 3;
+                    pe = rbp.wrapping_add((b & 1) * half + (b >> 1));
+                    pd = rbp.wrapping_add(((b + 1) & 1) * half + ((b + 1) >> 1));
+                } else {
+                    (pe, pd) = (pd, pe.wrapping_add(1));
+                }
+            }
+            // Safety: as for [`column`] below (checked above for the row): columns `x + r <
+            // w` and `x - r - 1` (`x > r`: `x - r` is odd) of `colsum` hold words `w0 .. w0
+            // + nw <= gw`; `ap` has `nw` words and is not part of `colsum`.
+            unsafe {
+                slide(
+                    ap_ptr,
+                    cs.add((x + r) * gw + w0),
+                    cs.add((x - r - 1) * gw + w0),
+                    groups,
+                );
+            }
+            continue;
+        }
         let res = if lr_on && x >= x_steady {
             // Every group's right pixels inside: pixels `b - 4k ..= b - 4k + 3`, `b = x -
             // dmin - 3`. One column on, pixel b + 1 is the last column's pixel b + 1 and
@@ -719,6 +747,34 @@ fn match_row(
             }
         }
         rep.rejected_lr += lr;
+    }
+    if skip_odd {
+        fill_between(disp, r, w - r);
+    }
+}
+
+/// Columns `x` of `lo + 1..hi` with `x - lo` odd (not decided, `column_step` 2) take the
+/// mean of their neighbours' disparities (Q4, rounded up) where both have one and they
+/// agree within 1 px, else 0 (no data). The neighbours are decided columns (or outside
+/// `lo..hi`, no data): none of them changes.
+pub(crate) fn fill_between(disp: &mut [u16], lo: usize, hi: usize) {
+    let mut x = lo + 1;
+    while x < hi {
+        let a = disp.get(x - 1).copied().unwrap_or(0);
+        let b = if x + 1 < hi {
+            disp.get(x + 1).copied().unwrap_or(0)
+        } else {
+            0
+        };
+        let v = if a != 0 && b != 0 && a.abs_diff(b) <= ONE_Q {
+            ((u32::from(a) + u32::from(b) + 1) >> 1) as u16
+        } else {
+            0
+        };
+        if let Some(o) = disp.get_mut(x) {
+            *o = v;
+        }
+        x += 2;
     }
 }
 
@@ -1139,6 +1195,7 @@ impl<'a> StereoView<'a> {
                 gap: area * u32::from(p.min_gap_per_px),
                 lr: p.lr_check,
                 sub: p.subpixel,
+                step: usize::from(p.column_step),
             };
             if let Some(drow) = disp.get_mut((q % 3) * w..(q % 3) * w + w) {
                 match_row(&m, colsum, aggw, rb, drow, rep);
@@ -1353,4 +1410,23 @@ pub(crate) fn run(
     mode: Output,
 ) -> Result<BandReport, StereoError> {
     StereoView::new(rig, left, right, bytes, words)?.rows(y0, y1, out, mode)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn columns_between_decided_ones_take_the_mean_of_agreeing_neighbours() {
+        // Decided columns 2, 4, ...; the row's matched columns are 2..10.
+        let q = |px: u16| px * ONE_Q;
+        let mut d = [0, 0, q(5), 7, q(5) + 8, 7, q(7), 7, 0, 7, q(9), 0];
+        fill_between(&mut d, 2, 10);
+        // 3: 5 and 5.5 agree (the mean); 5: 5.5 and 7 are 1.5 px apart; 7: one side has
+        // no data; 9: its right neighbour lies outside 2..10. Outside 2..10: untouched.
+        assert_eq!(
+            d,
+            [0, 0, q(5), q(5) + 4, q(5) + 8, 0, q(7), 0, 0, 0, q(9), 0]
+        );
+    }
 }

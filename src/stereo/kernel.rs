@@ -74,6 +74,55 @@ pub(crate) unsafe fn slide_min<const SLIDE: bool>(
     LaneMin { be, ie, bd, id }
 }
 
+/// Slides the row's words one column on without their minima: adds the words at `ci`,
+/// removes those at `co`, stores the sums at `ap` (a column whose disparity is not
+/// decided, `StereoParams::column_step`).
+///
+/// # Safety
+/// As [`slide_min`] with the slide.
+#[inline(always)]
+pub(crate) unsafe fn slide(ap: *mut u32, ci: *const u32, co: *const u32, groups: usize) {
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    {
+        // Safety: reads `2 groups` aligned words at `ci` and `co`, reads and writes `2
+        // groups` aligned words at `ap` (the caller's contract; LDRD/STRD), nothing else;
+        // no stack; the flags are not declared preserved.
+        unsafe {
+            core::arch::asm!(
+                "2:",
+                "ldrd {e}, {d}, [{ap}]",
+                "ldrd {t}, {u}, [{ci}], #8",
+                "add {e}, {e}, {t}",
+                "add {d}, {d}, {u}",
+                "ldrd {t}, {u}, [{co}], #8",
+                "sub {e}, {e}, {t}",
+                "sub {d}, {d}, {u}",
+                "strd {e}, {d}, [{ap}], #8",
+                "subs {n}, {n}, #1",
+                "bne 2b",
+                ap = inout(reg) ap => _,
+                ci = inout(reg) ci => _,
+                co = inout(reg) co => _,
+                n = inout(reg) groups => _,
+                e = out(reg) _,
+                d = out(reg) _,
+                t = out(reg) _,
+                u = out(reg) _,
+                options(nostack),
+            );
+        }
+    }
+    #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
+    // Safety: the caller's contract; every offset is below `2 groups`.
+    unsafe {
+        for k in 0..2 * groups {
+            let pa = ap.add(k);
+            // Exact per lane (the caller's bounds).
+            *pa = *pa + *ci.add(k) - *co.add(k);
+        }
+    }
+}
+
 /// [`slide_min`] with the slide, as one Armv7E-M loop (20 instructions per group).
 ///
 /// # Safety

@@ -21,7 +21,9 @@
 //!    not `uniqueness_pct` % worse, or when the gap is below `min_gap_per_px` per window
 //!    pixel (textureless ground);
 //! 4. left-right consistency: the right image's own winner (minimum of the same costs along
-//!    the other diagonal) must agree within 1 px;
+//!    the other diagonal) must agree within 1 px; with `column_step` 2 steps 3 to 5 are
+//!    taken at every other column, the window still sliding over every column, and a
+//!    column between two decided ones takes their mean where they agree within 1 px;
 //! 5. sub-pixel disparity by a parabola through the three costs ([`crate::peak`]), Q4;
 //! 6. speckle rejection: a disparity needs `min_support` of its 8 neighbours within 1 px;
 //! 7. rows matched at a coarser scale (or with `row_factor` 2) are expanded onto the
@@ -89,6 +91,12 @@ pub struct StereoParams {
     /// Aggregation radius down, rows of the (row-reduced) level image (1..=7; window
     /// `2 radius_rows_px + 1` tall).
     pub radius_rows_px: u8,
+    /// Columns of a level row whose disparity is decided (1..=2): 2 decides every other
+    /// column (`x - radius_px` even: winner, uniqueness, left-right check, sub-pixel), while
+    /// the window still slides over every column; a column between two decided ones takes
+    /// their mean where both have a disparity and they agree within 1 px, else no data.
+    /// The right image's winners come from the decided columns only.
+    pub column_step: u8,
     /// Clip of the Sobel pre-filter, gray levels (1..=63).
     pub prefilter_cap: u8,
     /// The runner-up cost must be at least this many percent above the winner's (0..=50).
@@ -122,12 +130,13 @@ pub struct StereoParams {
 }
 
 impl Default for StereoParams {
-    /// 0.30 m baseline, 2x reduction, rows not reduced further, 7 x 7 window, cap 31, 10 %
-    /// uniqueness, gap 1 per pixel, left-right check, support 3, 25 sqrt(2) m range, relief
-    /// +0.5 m / -2 m, 2 deg, up to two coarser scales where a quarter pixel moves the ground
-    /// by at most 0.175 m (`docs/stereo.md`: the fix's accuracy on development seed 5 is the
-    /// same from 0.125 to 0.35 m; above 0.175 m the bad-pixel rate of the OpenCV benchmark,
-    /// counted in working-size pixels, passes 1.5x SGBM's).
+    /// 0.30 m baseline, 2x reduction, rows not reduced further, 7 x 7 window, every other
+    /// column decided, cap 31, 10 % uniqueness, gap 1 per pixel, left-right check, support
+    /// 3, 25 sqrt(2) m range, relief +0.5 m / -2 m, 2 deg, up to two coarser scales where a
+    /// quarter pixel moves the ground by at most 0.175 m (`docs/stereo.md`: the fix's
+    /// accuracy on development seed 5 is the same from 0.125 to 0.35 m, and with every
+    /// other column decided; above 0.175 m the bad-pixel rate of the OpenCV benchmark,
+    /// counted in working-size pixels, passes 1.5x SGBM's with every column decided).
     fn default() -> Self {
         Self {
             baseline_m: DEFAULT_BASELINE_M,
@@ -135,6 +144,7 @@ impl Default for StereoParams {
             radius_px: 3,
             row_factor: 1,
             radius_rows_px: 3,
+            column_step: 2,
             prefilter_cap: 31,
             uniqueness_pct: 10,
             min_gap_per_px: 1,
@@ -402,13 +412,17 @@ impl StereoRig {
         if !(p.baseline_m.is_finite() && p.baseline_m > 0.0 && p.baseline_m <= 10.0) {
             return Err(StereoError::Baseline);
         }
-        let checks: [(bool, &'static str); 13] = [
+        let checks: [(bool, &'static str); 14] = [
             ((1..=4).contains(&p.downsample), "downsample must be 1..=4"),
             (
                 (1..=MAX_RADIUS).contains(&p.radius_px),
                 "radius_px must be 1..=7",
             ),
             ((1..=2).contains(&p.row_factor), "row_factor must be 1 or 2"),
+            (
+                (1..=2).contains(&p.column_step),
+                "column_step must be 1 or 2",
+            ),
             (
                 (1..=MAX_RADIUS).contains(&p.radius_rows_px),
                 "radius_rows_px must be 1..=7",

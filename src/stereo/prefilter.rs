@@ -98,6 +98,8 @@ pub fn downsample_row_by(frame: &ImageView<'_>, kx: usize, ky: usize, row: usize
                 }
             }
         }
+        // The second coarser level of the default rig (8 x 8): whole words of each row.
+        _ if k % 4 == 0 && k * k <= 256 => reduce_words(frame, k, k, row, out),
         _ => reduce_rows(frame, k, k, row, w, out),
     }
 }

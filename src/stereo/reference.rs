@@ -178,6 +178,7 @@ struct RowMatch {
     gap: u32,
     lr: bool,
     sub: super::SubPixel,
+    step: usize,
 }
 
 /// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none).
@@ -217,6 +218,9 @@ fn match_row(
             for ((a, &ci), &co) in agg.iter_mut().zip(col(x + m.r)).zip(col(x - m.r - 1)) {
                 *a = *a + ci - co;
             }
+        }
+        if m.step == 2 && (x - m.r) % 2 == 1 {
+            continue;
         }
         let (mut best, mut bi) = (u16::MAX, 0usize);
         for (i, &c) in agg.iter().enumerate() {
@@ -301,6 +305,25 @@ fn match_row(
             }
         }
         rep.rejected_lr += lr;
+    }
+    if m.step == 2 {
+        // Columns between decided ones: their neighbours' mean when both agree within 1 px.
+        for x in (m.r + 1..m.w - m.r).step_by(2) {
+            let a = disp.get(x - 1).copied().unwrap_or(0);
+            let b = if x + 1 < m.w - m.r {
+                disp.get(x + 1).copied().unwrap_or(0)
+            } else {
+                0
+            };
+            let near = a != 0 && b != 0 && a.abs_diff(b) <= ONE_Q;
+            if let Some(o) = disp.get_mut(x) {
+                *o = if near {
+                    (u32::from(a) + u32::from(b)).div_ceil(2) as u16
+                } else {
+                    0
+                };
+            }
+        }
     }
 }
 
@@ -610,6 +633,7 @@ fn run_level(
                 gap: area * u32::from(p.min_gap_per_px),
                 lr: p.lr_check,
                 sub: p.subpixel,
+                step: usize::from(p.column_step),
             };
             let drow = &mut disp[(y % 3) * w..(y % 3) * w + w];
             match_row(&m, colsum, agg, rbc, rbd, drow, rep);
@@ -754,6 +778,7 @@ mod tests {
                     downsample: 1 + rng.below(2) as u8,
                     radius_px: 1 + rng.below(7) as u8,
                     row_factor: 1 + rng.below(2) as u8,
+                    column_step: 1 + rng.below(2) as u8,
                     radius_rows_px: 1 + rng.below(7) as u8,
                     prefilter_cap: [1, 15, 31, 63][rng.below(4) as usize],
                     uniqueness_pct: rng.below(30) as u8,
@@ -842,6 +867,8 @@ mod tests {
                 // Rows reduced by two more (a shorter window down) in two cases.
                 row_factor: 1 + (case as u8 & 1),
                 radius_rows_px: [3, 1, 3, 2][case],
+                // Every other column decided in two cases.
+                column_step: [1, 2, 2, 1][case],
                 ..StereoParams::default()
             };
             let rig = StereoRig::new(&cam, &p).unwrap();

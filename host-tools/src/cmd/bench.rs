@@ -76,6 +76,10 @@ pub struct Args {
     /// "Rows reduced twice").
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().row_factor)]
     row_factor: u8,
+    /// stereo: every N-th column of a row decided (1 or 2; 2: the window slides over every
+    /// column, the columns between take their neighbours' mean where they agree).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().column_step)]
+    column_step: u8,
     /// stereo: aggregation radius down, rows of the level image (1..=7).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().radius_rows_px)]
     radius_rows: u8,
@@ -149,6 +153,7 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         scale_levels: args.scale_levels,
         scale_error_m: args.scale_error,
         row_factor: args.row_factor,
+        column_step: args.column_step,
         radius_rows_px: args.radius_rows,
         subpixel: args.subpixel.into(),
         ..Default::default()

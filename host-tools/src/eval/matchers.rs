@@ -37,7 +37,8 @@ ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -
 window radius down, rows), -seN (stereo: coarser scale where a quarter pixel moves the ground \
 at most N metres), -spN (stereo sub-pixel fit: 0 parabola, 1 equiangular), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
 cost gap per window pixel), -msN (stereo: support, neighbours of 8), -mdN (largest depth \
-reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks)";
+reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks), -csN (stereo: \
+every N-th column decided, 1..2), -dsN (stereo: frames reduced N times before matching, 1..4; the fix's width and disparity limits follow)";
 
 /// The fix configuration behind a fix matcher name (`fix`, `fix-ncc`, `fix-signed`, `cnn`,
 /// each optionally followed by [`FIX_OPTIONS`]), `None` for a baseline (or a fix name with
@@ -98,7 +99,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         let (key, value) = part.split_at(at);
         if ![
             "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
-            "rw", "rm",
+            "rw", "rm", "ds", "cs",
         ]
         .contains(&key)
         {
@@ -132,6 +133,18 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
                 ),
                 }
             }
+            "ds" => {
+                let ds = whole(v)?;
+                anyhow::ensure!(
+                    (1..=4).contains(&ds),
+                    "option '{part}' of matcher '{name}': ds is 1..=4"
+                );
+                // The default limits are for the eval's 640 x 360 frames reduced by 2: scale them.
+                m.downsample = ds as u8;
+                cfg.stereo.max_width_px = 640usize.div_ceil(ds as usize);
+                cfg.stereo.max_disparities = 96usize.div_ceil(ds as usize);
+            }
+            "cs" => m.column_step = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "rf" => m.row_factor = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "rr" => m.radius_rows_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             // Out of u8 range: u8::MAX, refused below by the rig's check.
