@@ -559,6 +559,29 @@ fn accept(ap: &[u32], key: u32, prm: &ColumnParams, d0: usize, sub: SubPixel) ->
     Some(q.min(i32::from(u16::MAX)) as u16)
 }
 
+/// The right winners' pointers of a steady column ([`match_row`]): at the first one
+/// (`first`) the costs of pixels `b` and `b + 1` (pixel `p` at `(p & 1) half + (p >> 1)`),
+/// else one column on from the last column's `(pe, pd)`: pixel `b + 1` is the last
+/// column's pixel `b + 1`, and pixel `b + 2` the one after the last column's pixel `b` in
+/// its array.
+#[inline(always)]
+fn right_ptrs(
+    rbp: *mut u16,
+    half: usize,
+    b: usize,
+    first: bool,
+    (pe, pd): (*mut u16, *mut u16),
+) -> (*mut u16, *mut u16) {
+    if first {
+        (
+            rbp.wrapping_add((b & 1) * half + (b >> 1)),
+            rbp.wrapping_add(((b + 1) & 1) * half + ((b + 1) >> 1)),
+        )
+    } else {
+        (pd, pe.wrapping_add(1))
+    }
+}
+
 /// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none): `aggw`
 /// holds the row's aggregated costs (the whole groups of four holding its range, the lane
 /// layout of [`lane`], indices outside the range biased by [`BIAS`]), `rb` the right
@@ -651,13 +674,7 @@ fn match_row(
         if skip_odd && (x - r) & 1 == 1 {
             if lr_on && x >= x_steady {
                 // The right winners' pointers move on as for a decided column.
-                if x == x_steady {
-                    let b = x - dmin - 3;
-                    pe = rbp.wrapping_add((b & 1) * half + (b >> 1));
-                    pd = rbp.wrapping_add(((b + 1) & 1) * half + ((b + 1) >> 1));
-                } else {
-                    (pe, pd) = (pd, pe.wrapping_add(1));
-                }
+                (pe, pd) = right_ptrs(rbp, half, x - dmin - 3, x == x_steady, (pe, pd));
             }
             // Safety: as for [`column`] below (checked above for the row): columns `x + r <
             // w` and `x - r - 1` (`x > r`: `x - r` is odd) of `colsum` hold words `w0 .. w0
@@ -674,15 +691,8 @@ fn match_row(
         }
         let res = if lr_on && x >= x_steady {
             // Every group's right pixels inside: pixels `b - 4k ..= b - 4k + 3`, `b = x -
-            // dmin - 3`. One column on, pixel b + 1 is the last column's pixel b + 1 and
-            // pixel b + 2 the one after the last column's pixel b in its array.
-            if x == x_steady {
-                let b = x - dmin - 3;
-                pe = rbp.wrapping_add((b & 1) * half + (b >> 1));
-                pd = rbp.wrapping_add(((b + 1) & 1) * half + ((b + 1) >> 1));
-            } else {
-                (pe, pd) = (pd, pe.wrapping_add(1));
-            }
+            // dmin - 3`.
+            (pe, pd) = right_ptrs(rbp, half, x - dmin - 3, x == x_steady, (pe, pd));
             // Safety: checked above for the row: columns `x + r < w` and `x - r - 1`
             // (`x > r`) of `colsum` (at least `w gw` words) hold words `w0 .. w0 + nw <=
             // gw`; `ap` has `nw` words and is not part of `colsum`; `pe`, `pd` point at the
