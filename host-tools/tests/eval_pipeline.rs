@@ -46,7 +46,22 @@ fn eval_runs_the_whole_pipeline_and_reports() {
         .per_query
         .iter()
         .all(|q| q.status.is_some() && q.path.is_some()));
-    assert!(out.reports[0].fix.is_none());
+    // Each fix lists its candidates, each at its own distance from the truth; the fix's own
+    // position is one of them when the refinement took it.
+    for q in &out.reports[2].per_query {
+        assert!(!q.candidates.is_empty());
+        for c in &q.candidates {
+            let d = ((c.at_m.0 - q.truth_m.0).powi(2) + (c.at_m.1 - q.truth_m.1).powi(2)).sqrt();
+            assert!((c.error_m - d).abs() < 1e-6 && c.score.is_finite());
+        }
+        if q.path.as_deref() == Some("ncc") {
+            assert!(q
+                .candidates
+                .iter()
+                .any(|c| c.refined && (c.error_m - q.error_m).abs() < 1e-3));
+        }
+    }
+    assert!(out.reports[0].fix.is_none() && out.reports[0].per_query[0].candidates.is_empty());
     assert_eq!(out.examples.len(), 1);
     let r = &out.reports[0];
     assert_eq!((r.queries, r.windows_per_query), (2, 13 * 13));

@@ -88,6 +88,22 @@ pub struct QueryResult {
     pub path: Option<String>,
     /// The fix's stated error bound, metres; fix matchers only.
     pub error_bound_m: Option<f64>,
+    /// The fix's candidates in the order of the CNN's peaks (the refined ones first), each
+    /// with its distance from the truth; fix matchers only (empty otherwise).
+    pub candidates: Vec<CandidateResult>,
+}
+
+/// One of a fix's candidate positions ([`orbfix::localize::Candidate`]) against the truth.
+#[derive(Clone, Debug, Serialize)]
+pub struct CandidateResult {
+    /// Position `(x, y)`, metres.
+    pub at_m: (f64, f64),
+    /// Distance from the truth, metres.
+    pub error_m: f64,
+    /// NCC score when `refined`, else the CNN's coarse score.
+    pub score: f64,
+    /// Whether the refinement scored it.
+    pub refined: bool,
 }
 
 /// What a fix matcher's users read besides the errors.
@@ -294,6 +310,19 @@ fn run_query(
                 status: Some(r.status.name().to_string()),
                 path: Some(r.path.name().to_string()),
                 error_bound_m: Some(r.error_bound_m as f64),
+                candidates: r
+                    .candidates
+                    .iter()
+                    .map(|c| {
+                        let at = (c.x_m as f64, c.y_m as f64);
+                        CandidateResult {
+                            at_m: at,
+                            error_m: ((at.0 - q.x_m).powi(2) + (at.1 - q.y_m).powi(2)).sqrt(),
+                            score: c.score as f64,
+                            refined: c.refined,
+                        }
+                    })
+                    .collect(),
             });
             locs.push(loc);
             continue;
@@ -337,6 +366,7 @@ fn run_query(
             status: None,
             path: None,
             error_bound_m: None,
+            candidates: Vec::new(),
         });
         locs.push(loc);
     }
