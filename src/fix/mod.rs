@@ -19,8 +19,10 @@
 //! 4. **`refine`**: the best [`RefineConfig::peaks`] coarse peaks after non-maximum
 //!    suppression ([`FixConfig::nms_radius_m`]), each refined by masked, high-passed NCC in
 //!    two levels ([`refine`]) with a sub-pixel peak; [`RefineMode::Auto`] keeps the best NCC
-//!    position when its score reaches [`RefineConfig::min_ncc`] inside the reach, else the
-//!    CNN's sub-cell peak (a parabola on the coarse response). The report names the path.
+//!    position (with stereo depth, the CNN's best peak unless another beats it by
+//!    [`RefineConfig::ncc_margin_stereo`]) when its score reaches [`RefineConfig::min_ncc`]
+//!    inside the reach, else the CNN's sub-cell peak (a parabola on the coarse response).
+//!    The report names the path.
 //!
 //! Confidence (one definition, [`coarse::confidence`]): `(s1 - s2) / (s1 - mean)` on the
 //! coarse response, `s1` the chosen window's score, `s2` the best score farther than the
@@ -47,7 +49,7 @@ mod top_down;
 
 pub use config::{
     ErrorBounds, FixConfig, RefineConfig, RefineLevel, RefineMode, SelfCheck,
-    ACCEPT_CONFIDENCE_FLAT, ACCEPT_CONFIDENCE_STEREO, MIN_NCC_STEREO,
+    ACCEPT_CONFIDENCE_FLAT, ACCEPT_CONFIDENCE_STEREO, MIN_NCC_STEREO, NCC_MARGIN_STEREO,
 };
 pub use digest::{fnv1a, fnv1a_start, output_digest};
 pub use heading::{run_heading_search, HeadingFix, HeadingSearch, MAX_HEADINGS};
@@ -388,7 +390,8 @@ fn run_once<C: StageClock>(
         );
         match templates {
             Ok(t) => {
-                let mut best: Option<(usize, refine::Refined)> = None;
+                // The CNN's best peak's refinement, and the best of the others.
+                let (mut first, mut other): (Option<(usize, refine::Refined)>, _) = (None, None);
                 for &(idx, _) in peaks.iter().take(cfg.refine.peaks) {
                     let (c, r) = window_cell(idx, cols);
                     let w = (c * step, r * step);
@@ -409,10 +412,21 @@ fn run_once<C: StageClock>(
                         score: r.score,
                         refined: true,
                     });
-                    if best.is_none_or(|(_, b)| r.score > b.score) {
-                        best = Some((idx, r));
+                    if first.is_none() {
+                        first = Some((idx, r));
+                    } else if other.is_none_or(|(_, b): (usize, refine::Refined)| r.score > b.score)
+                    {
+                        other = Some((idx, r));
                     }
                 }
+                // The highest NCC (the first on a tie), the CNN's best unless another beats
+                // it by the margin.
+                let margin = ncc_margin(cfg, &inputs.depth);
+                let best = match (first, other) {
+                    (Some(f), Some(o)) if o.1.score > f.1.score + margin => Some(o),
+                    (Some(f), _) => Some(f),
+                    (None, o) => o,
+                };
                 if let Some((idx, r)) = best {
                     let trusted = cfg.refine.mode == RefineMode::Ncc
                         || (r.score >= min_ncc(cfg, &inputs.depth) && !r.at_edge);
@@ -489,6 +503,15 @@ fn error_bound(cfg: &FixConfig, path: FixPath, score: f32) -> f32 {
 
 /// The NCC score the refinement needs to be kept ([`RefineMode::Auto`]): lower with the
 /// fix's own stereo depth.
+/// The NCC a refined peak other than the CNN's best needs above the best's to replace it:
+/// [`RefineConfig::ncc_margin_stereo`] with the fix's own stereo depth, else 0.
+fn ncc_margin(cfg: &FixConfig, depth: &Depth<'_>) -> f32 {
+    match depth {
+        Depth::Stereo(_) => cfg.refine.ncc_margin_stereo,
+        Depth::Flat | Depth::Images(_) => 0.0,
+    }
+}
+
 fn min_ncc(cfg: &FixConfig, depth: &Depth<'_>) -> f32 {
     match depth {
         Depth::Stereo(_) => cfg.refine.min_ncc_stereo,
@@ -728,5 +751,28 @@ mod tests {
         let mut bad = cfg;
         bad.refine.min_ncc_stereo = f32::NAN;
         assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn only_stereo_depth_keeps_the_cnn_best_within_the_margin() {
+        let mut cfg = FixConfig::default();
+        cfg.refine.ncc_margin_stereo = 0.05;
+        assert!(cfg.validate().is_ok());
+        assert_eq!(ncc_margin(&cfg, &Depth::Stereo([None; 4])), 0.05);
+        assert_eq!(ncc_margin(&cfg, &Depth::Flat), 0.0);
+        assert_eq!(ncc_margin(&cfg, &Depth::Images([None; 4])), 0.0);
+        for v in [f32::NAN, -0.01, 1.5, f32::INFINITY] {
+            let mut bad = cfg;
+            bad.refine.ncc_margin_stereo = v;
+            assert!(
+                matches!(
+                    bad.validate(),
+                    Err(FixError::BadConfig {
+                        field: "refine.ncc_margin_stereo"
+                    })
+                ),
+                "{v}"
+            );
+        }
     }
 }

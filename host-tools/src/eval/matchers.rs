@@ -31,7 +31,8 @@ pub fn best_matcher() -> &'static str {
 /// `fix-p5-ra1`: the same fix with one setting of [`FixConfig`] changed, for tuning on the
 /// development seed; the report prints the whole configuration.
 pub const FIX_OPTIONS: &str = "-pN (coarse peaks refined), -mnN (smallest NCC kept, 0..1), \
--mnsN (smallest NCC kept with the fix's own stereo depth), \
+-mnsN (smallest NCC kept with the fix's own stereo depth), -nmN (NCC margin another refined \
+peak needs over the CNN's best with the fix's own stereo depth), \
 -raN / -rbN (stereo: relief searched above / below the ground, metres), -srN (stereo: \
 ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -rrN (stereo: \
 window radius down, rows), -seN (stereo: coarser scale where a quarter pixel moves the ground \
@@ -99,7 +100,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         let (key, value) = part.split_at(at);
         if ![
             "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
-            "rw", "rm", "ds", "cs",
+            "rw", "rm", "ds", "cs", "nm",
         ]
         .contains(&key)
         {
@@ -120,6 +121,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "p" => cfg.refine.peaks = whole(v)? as usize,
             "mn" => cfg.refine.min_ncc = v,
             "mns" => cfg.refine.min_ncc_stereo = v,
+            "nm" => cfg.refine.ncc_margin_stereo = v,
             "ra" => m.relief_above_m = v,
             "rb" => m.relief_below_m = v,
             "sr" => m.max_ground_range_m = v,
