@@ -141,10 +141,12 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
                     (1..=4).contains(&ds),
                     "option '{part}' of matcher '{name}': ds is 1..=4"
                 );
-                // The default limits are for the eval's 640 x 360 frames reduced by 2: scale them.
+                // The fix's width and disparity limits scale with the working size.
+                let (old, new) = (usize::from(m.downsample.max(1)), ds as usize);
                 m.downsample = ds as u8;
-                cfg.stereo.max_width_px = 640usize.div_ceil(ds as usize);
-                cfg.stereo.max_disparities = 96usize.div_ceil(ds as usize);
+                let s = &mut cfg.stereo;
+                s.max_width_px = (s.max_width_px * old).div_ceil(new);
+                s.max_disparities = (s.max_disparities * old).div_ceil(new);
             }
             "cs" => m.column_step = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "rf" => m.row_factor = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
