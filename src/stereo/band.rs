@@ -396,7 +396,7 @@ struct RowMatch {
     gap: u32,
     lr: bool,
     sub: SubPixel,
-    /// Columns decided: every one (1) or every other one (2, `StereoParams::column_step`).
+    /// Columns decided: every `step`-th (1..=4, `Scales::column_step`).
     step: usize,
 }
 
@@ -665,34 +665,21 @@ fn match_row(
         gap: m.gap,
     };
     let (mut edge, mut uniq) = (0u64, 0u64);
-    let skip_odd = m.step == 2;
-    for x in r..w - r {
+    let step = m.step.max(1);
+    // The decided columns `x` (`x - r` a multiple of `step`); after each, the window
+    // slides over the `step - 1` columns that are not decided in one call.
+    let mut x = r;
+    while x < w - r {
         let ap_ptr = ap.as_mut_ptr();
         // The largest index whose window lies inside the right image (x >= d + r).
         prm.lim = (x - r) as i32 - dmin as i32;
-        // A column whose disparity is not decided (`column_step` 2): the window slides on.
-        if skip_odd && (x - r) & 1 == 1 {
-            if lr_on && x >= x_steady {
-                // The right winners' pointers move on as for a decided column.
-                (pe, pd) = right_ptrs(rbp, half, x - dmin - 3, x == x_steady, (pe, pd));
-            }
-            // Safety: as for [`column`] below (checked above for the row): columns `x + r <
-            // w` and `x - r - 1` (`x > r`: `x - r` is odd) of `colsum` hold words `w0 .. w0
-            // + nw <= gw`; `ap` has `nw` words and is not part of `colsum`.
-            unsafe {
-                slide(
-                    ap_ptr,
-                    cs.add((x + r) * gw + w0),
-                    cs.add((x - r - 1) * gw + w0),
-                    groups,
-                );
-            }
-            continue;
-        }
         let res = if lr_on && x >= x_steady {
             // Every group's right pixels inside: pixels `b - 4k ..= b - 4k + 3`, `b = x -
             // dmin - 3`.
-            (pe, pd) = right_ptrs(rbp, half, x - dmin - 3, x == x_steady, (pe, pd));
+            // With columns skipped the pointers are set afresh (the last ones are `step`
+            // columns back).
+            let first = x == x_steady || step > 1;
+            (pe, pd) = right_ptrs(rbp, half, x - dmin - 3, first, (pe, pd));
             // Safety: checked above for the row: columns `x + r < w` and `x - r - 1`
             // (`x > r`) of `colsum` (at least `w gw` words) hold words `w0 .. w0 + nw <=
             // gw`; `ap` has `nw` words and is not part of `colsum`; `pe`, `pd` point at the
@@ -729,6 +716,25 @@ fn match_row(
                 None => uniq += 1,
             },
         }
+        // The columns up to the next decided one (not past the row's last): the window
+        // slides on.
+        let n = (step - 1).min(w - r - 1 - x);
+        if n > 0 {
+            // Safety: checked above for the row: columns `x + 1 + r ..= x + n + r < w` and
+            // `x - r ..= x + n - r - 1` of `colsum` (at least `w gw` words) hold words `w0 ..
+            // w0 + nw <= gw`; `ap` has `nw` words and is not part of `colsum`.
+            unsafe {
+                slide(
+                    ap_ptr,
+                    cs.add((x + 1 + r) * gw + w0),
+                    cs.add((x - r) * gw + w0),
+                    groups,
+                    gw,
+                    n,
+                );
+            }
+        }
+        x += n + 1;
     }
     rep.pixel_disparities += ((w - 2 * r) * (hi + 1 - lo)) as u64;
     rep.rejected_edge += edge;
@@ -758,33 +764,61 @@ fn match_row(
         }
         rep.rejected_lr += lr;
     }
-    if skip_odd {
-        fill_between(disp, r, w - r);
+    if step > 1 {
+        fill_between(disp, r, w - r, step);
     }
 }
 
-/// Columns `x` of `lo + 1..hi` with `x - lo` odd (not decided, `column_step` 2) take the
-/// mean of their neighbours' disparities (Q4, rounded up) where both have one and they
-/// agree within 1 px, else 0 (no data). The neighbours are decided columns (or outside
-/// `lo..hi`, no data): none of them changes.
-pub(crate) fn fill_between(disp: &mut [u16], lo: usize, hi: usize) {
-    let mut x = lo + 1;
-    while x < hi {
-        let a = disp.get(x - 1).copied().unwrap_or(0);
-        let b = if x + 1 < hi {
-            disp.get(x + 1).copied().unwrap_or(0)
-        } else {
-            0
-        };
-        let v = if a != 0 && b != 0 && a.abs_diff(b) <= ONE_Q {
-            ((u32::from(a) + u32::from(b) + 1) >> 1) as u16
-        } else {
-            0
-        };
-        if let Some(o) = disp.get_mut(x) {
-            *o = v;
+/// Columns `x` of `lo + 1..hi` whose `x - lo` is not a multiple of `step` (not decided)
+/// take the linear blend of the decided columns on either side (Q4, rounded half up:
+/// `(a (step - k) + b k + step / 2) / step` at `k` columns past `a`; for `step` 2 the mean,
+/// rounded up) where both have a disparity and they agree within 1 px, else 0 (no data).
+/// The decided columns (and those past the last decided one before `hi`, with no right
+/// neighbour: no data) do not change.
+pub(crate) fn fill_between(disp: &mut [u16], lo: usize, hi: usize, step: usize) {
+    match step {
+        2 => fill_by::<2>(disp, lo, hi),
+        3 => fill_by::<3>(disp, lo, hi),
+        4 => fill_by::<4>(disp, lo, hi),
+        _ => {}
+    }
+}
+
+/// [`fill_between`] with the step a constant (the division by 2 and 4 a shift).
+#[inline(never)]
+fn fill_by<const N: usize>(disp: &mut [u16], lo: usize, hi: usize) {
+    let n = N as u32;
+    let hi = hi.min(disp.len());
+    if lo >= hi {
+        return;
+    }
+    let p = disp.as_mut_ptr();
+    // Safety: every index read or written below is below `hi <= disp.len()`.
+    unsafe {
+        let mut x0 = lo;
+        let mut a = u32::from(*p.add(x0));
+        // Whole spans: both decided columns inside.
+        while x0 + N < hi {
+            let x1 = x0 + N;
+            let b = u32::from(*p.add(x1));
+            let near = a != 0 && b != 0 && a.abs_diff(b) <= u32::from(ONE_Q);
+            for k in 1..N {
+                let k32 = k as u32;
+                // At most 4 * 2^16: no overflow.
+                let v = if near {
+                    ((a * (n - k32) + b * k32 + n / 2) / n) as u16
+                } else {
+                    0
+                };
+                *p.add(x0 + k) = v;
+            }
+            x0 = x1;
+            a = b;
         }
-        x += 2;
+        // Past the last decided column: no right neighbour.
+        for x in x0 + 1..hi {
+            *p.add(x) = 0;
+        }
     }
 }
 
@@ -1205,7 +1239,7 @@ impl<'a> StereoView<'a> {
                 gap: area * u32::from(p.min_gap_per_px),
                 lr: p.lr_check,
                 sub: p.subpixel,
-                step: usize::from(p.column_step),
+                step: rig.scales.column_step(l, q),
             };
             if let Some(drow) = disp.get_mut((q % 3) * w..(q % 3) * w + w) {
                 match_row(&m, colsum, aggw, rb, drow, rep);
@@ -1431,12 +1465,45 @@ mod tests {
         // Decided columns 2, 4, ...; the row's matched columns are 2..10.
         let q = |px: u16| px * ONE_Q;
         let mut d = [0, 0, q(5), 7, q(5) + 8, 7, q(7), 7, 0, 7, q(9), 0];
-        fill_between(&mut d, 2, 10);
+        fill_between(&mut d, 2, 10, 2);
         // 3: 5 and 5.5 agree (the mean); 5: 5.5 and 7 are 1.5 px apart; 7: one side has
         // no data; 9: its right neighbour lies outside 2..10. Outside 2..10: untouched.
         assert_eq!(
             d,
             [0, 0, q(5), q(5) + 4, q(5) + 8, 0, q(7), 0, 0, 0, q(9), 0]
         );
+    }
+
+    #[test]
+    fn columns_between_decided_ones_four_apart_take_the_linear_blend() {
+        // Decided columns 1, 5, 9, 13; the row's matched columns are 1..12.
+        let q = |px: u16| px * ONE_Q;
+        let mut d = [0, q(4), 9, 9, 9, q(5), 9, 9, 9, q(7), 9, 9, 0, q(8)];
+        fill_between(&mut d, 1, 12, 4);
+        // 2-4: 4 -> 5 px in quarters (rounded half up: 4.25, 4.5, 4.75 px); 6-8: 5 and 7
+        // are 2 px apart; 10-11: column 13 lies outside 1..12 (no right neighbour).
+        assert_eq!(
+            d,
+            [
+                0,
+                q(4),
+                q(4) + 4,
+                q(4) + 8,
+                q(4) + 12,
+                q(5),
+                0,
+                0,
+                0,
+                q(7),
+                0,
+                0,
+                0,
+                q(8)
+            ]
+        );
+        // Step 3: thirds of the 1 px (16 Q4 units) between them, rounded half up.
+        let mut e = [q(2), 0, 0, q(3)];
+        fill_between(&mut e, 0, 4, 3);
+        assert_eq!(e, [q(2), q(2) + 5, q(2) + 11, q(3)]);
     }
 }

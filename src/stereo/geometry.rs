@@ -9,8 +9,10 @@
 //! row searches `[f B max(s_lo / (h + below), 1 / Zmax), f B s_hi / (h - above)]`, widened by
 //! one pixel on each side so that every true disparity in range is an interior winner
 //! (`Zmax`: the largest depth of a point within `max_ground_range_m`). Rows with
-//! `s_hi <= 0` only see sky (nothing there is lower than the camera minus `above`) and are
-//! skipped. Set-up math (`f32`, once per rig and per row of a band).
+//! `s_hi <= 0` only see sky (nothing there is lower than the camera minus `above`), and rows
+//! whose range is empty before the widening (`f B s_hi / (h - above) < f B / Zmax`: only
+//! points beyond the range could be that high in the image) see nothing the top-down square
+//! holds; both are skipped. Set-up math (`f32`, once per rig and per row of a band).
 //!
 //! A rig has one [`RowRanges`] per matching level ([`super::scale`]): level `L` works on the
 //! frames reduced by `downsample * 2^L` (and `row_factor` times more down), so its focal
@@ -93,6 +95,19 @@ impl RowRanges {
         Some(z * z / (4.0 * self.fb))
     }
 
+    /// Ground span across one column of this level, metres, at the flat ground under the
+    /// top edge of row `v` (its farthest ground, level rover at tilt `tilt_deg`: `Z / f`),
+    /// or `None` when that edge sees no ground.
+    pub fn column_span_m(&self, v: usize, tilt_deg: f32) -> Option<f32> {
+        let t = tilt_deg.to_radians();
+        let yn = (v as f32 - self.cy) / self.focal_rows;
+        let s = libm::sinf(t) + yn * libm::cosf(t);
+        if s.is_nan() || s <= 0.0 {
+            return None;
+        }
+        Some(self.h / s / self.focal)
+    }
+
     /// Focal length at the working size, pixels.
     pub fn focal_px(&self) -> f32 {
         self.focal
@@ -114,6 +129,11 @@ impl RowRanges {
         }
         let d_lo = self.fb * (s_lo / (self.h + self.below)).max(self.inv_zmax);
         let d_hi = self.fb * s_hi / (self.h - self.above);
+        // Every point this row sees within `Zmax` would stand more than `above` over the
+        // ground: the row only sees sky or ground beyond the range.
+        if d_hi < d_lo {
+            return None;
+        }
         // Leave the columns a window needs: at most width - 2r - 2.
         let cap = self.width.saturating_sub(2 * self.radius + 2) as f32;
         // `max` / `min` rather than `clamp`: no assertion (panic path) in the flight build.
@@ -124,7 +144,8 @@ impl RowRanges {
         Some((lo as usize, hi as usize))
     }
 
-    /// The first row that is searched (rows above only see sky); `height` if none.
+    /// The first row that is searched (rows above only see sky, or nothing within the
+    /// range); `height` if none.
     pub fn first_active(&self) -> usize {
         (0..self.height)
             .find(|&v| self.row(v).is_some())
@@ -183,17 +204,28 @@ mod tests {
     #[test]
     fn flat_ground_inside_each_range_and_sky_skipped() {
         let cam = CameraParams::default();
-        // Rows at the working size (`row_factor` 1); `row_factor` 2 below.
+        // Rows at the working size (`row_factor` 1); `row_factor` 2 below. Relief +0.5 m.
         let p = StereoParams {
             row_factor: 1,
+            relief_above_m: 0.5,
             ..StereoParams::default()
         };
         let r = RowRanges::new(&cam, &p, 0);
         let f = r.focal_px();
         assert!((f - 160.0).abs() < 1e-3);
         let first = r.first_active();
-        // Horizon at yn = -tan(15 deg) - margin: about row 90 - 43 - a few.
-        assert_eq!(first, 35, "horizon row with the 2 deg margin");
+        // Horizon at yn = -tan(15 deg) - margin: about row 90 - 43 - a few (row 35); rows
+        // 35-41 could see ground only beyond the 35.4 m range, even 0.5 m up with 2 deg of
+        // pitch and roll (their largest disparity below f B / Zmax), so row 42 is the first.
+        assert_eq!(first, 42, "first row that can see the square");
+        let above = |v: f32| {
+            let yn = (v + 0.5 - 90.0) / f;
+            let (tm, m) = ((15f32 + 2.0).to_radians(), 2f32.to_radians());
+            let s_hi = libm::sinf(tm) + yn * libm::cosf(tm) + libm::sinf(m);
+            f * 0.3 * s_hi / 1.5
+        };
+        let zmax = libm::sqrtf(p.max_ground_range_m * p.max_ground_range_m + 16.0);
+        assert!(above(41.0) < f * 0.3 / zmax && above(42.0) >= f * 0.3 / zmax);
         let t = 15f32.to_radians();
         for v in first..180 {
             let (lo, hi) = r.row(v).unwrap();

@@ -74,21 +74,34 @@ pub(crate) unsafe fn slide_min<const SLIDE: bool>(
     LaneMin { be, ie, bd, id }
 }
 
-/// Slides the row's words one column on without their minima: adds the words at `ci`,
-/// removes those at `co`, stores the sums at `ap` (a column whose disparity is not
-/// decided, `StereoParams::column_step`).
+/// Slides the row's words `cols` columns on without their minima (columns whose disparity
+/// is not decided, `StereoParams::column_step`): for each column, adds the words at `ci`,
+/// removes those at `co`, stores the sums at `ap`; the next column's words are `stride`
+/// words further at `ci` and `co`.
 ///
 /// # Safety
-/// As [`slide_min`] with the slide.
+/// As [`slide_min`] with the slide, for each of the `cols >= 1` columns (`ci + j stride`,
+/// `co + j stride` for `j < cols`); `groups >= 1`.
 #[inline(always)]
-pub(crate) unsafe fn slide(ap: *mut u32, ci: *const u32, co: *const u32, groups: usize) {
+pub(crate) unsafe fn slide(
+    ap: *mut u32,
+    ci: *const u32,
+    co: *const u32,
+    groups: usize,
+    stride: usize,
+    cols: usize,
+) {
     #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
     {
-        // Safety: reads `2 groups` aligned words at `ci` and `co`, reads and writes `2
-        // groups` aligned words at `ap` (the caller's contract; LDRD/STRD), nothing else;
-        // no stack; the flags are not declared preserved.
+        // Bytes from the end of one column's words to the next column's.
+        let skip = 4 * (stride - 2 * groups);
+        // Safety: reads `2 groups` aligned words at `ci + j stride` and `co + j stride`,
+        // reads and writes `2 groups` aligned words at `ap` (the caller's contract;
+        // LDRD/STRD), nothing else; no stack; the flags are not declared preserved.
         unsafe {
             core::arch::asm!(
+                "3:",
+                "mov {n}, {g}",
                 "2:",
                 "ldrd {e}, {d}, [{ap}]",
                 "ldrd {t}, {u}, [{ci}], #8",
@@ -100,10 +113,18 @@ pub(crate) unsafe fn slide(ap: *mut u32, ci: *const u32, co: *const u32, groups:
                 "strd {e}, {d}, [{ap}], #8",
                 "subs {n}, {n}, #1",
                 "bne 2b",
+                "sub {ap}, {ap}, {g}, lsl #3",
+                "add {ci}, {ci}, {skip}",
+                "add {co}, {co}, {skip}",
+                "subs {c}, {c}, #1",
+                "bne 3b",
                 ap = inout(reg) ap => _,
+                g = in(reg) groups,
+                skip = in(reg) skip,
                 ci = inout(reg) ci => _,
                 co = inout(reg) co => _,
-                n = inout(reg) groups => _,
+                c = inout(reg) cols => _,
+                n = out(reg) _,
                 e = out(reg) _,
                 d = out(reg) _,
                 t = out(reg) _,
@@ -113,12 +134,15 @@ pub(crate) unsafe fn slide(ap: *mut u32, ci: *const u32, co: *const u32, groups:
         }
     }
     #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
-    // Safety: the caller's contract; every offset is below `2 groups`.
+    // Safety: the caller's contract; every offset is below `(cols - 1) stride + 2 groups`.
     unsafe {
-        for k in 0..2 * groups {
-            let pa = ap.add(k);
-            // Exact per lane (the caller's bounds).
-            *pa = *pa + *ci.add(k) - *co.add(k);
+        for j in 0..cols {
+            let (pi, po) = (ci.add(j * stride), co.add(j * stride));
+            for k in 0..2 * groups {
+                let pa = ap.add(k);
+                // Exact per lane (the caller's bounds).
+                *pa = *pa + *pi.add(k) - *po.add(k);
+            }
         }
     }
 }

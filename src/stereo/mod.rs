@@ -22,8 +22,10 @@
 //!    pixel (textureless ground);
 //! 4. left-right consistency: the right image's own winner (minimum of the same costs along
 //!    the other diagonal) must agree within 1 px; with `column_step` 2 steps 3 to 5 are
-//!    taken at every other column, the window still sliding over every column, and a
-//!    column between two decided ones takes their mean where they agree within 1 px;
+//!    taken at every other column (every `near_column_step`-th in the near rows whose flat
+//!    ground that many columns span at most `near_column_span_m`), the window still sliding
+//!    over every column, and a column between two decided ones takes their linear blend
+//!    where they agree within 1 px;
 //! 5. sub-pixel disparity by a parabola through the three costs ([`crate::peak`]), Q4;
 //! 6. speckle rejection: a disparity needs `min_support` of its 8 neighbours within 1 px;
 //! 7. rows matched at a coarser scale (or with `row_factor` 2) are expanded onto the
@@ -97,6 +99,15 @@ pub struct StereoParams {
     /// their mean where both have a disparity and they agree within 1 px, else no data.
     /// The right image's winners come from the decided columns only.
     pub column_step: u8,
+    /// Columns decided in the near rows (1..=4, at least `column_step`): a level row whose
+    /// flat ground (under its top edge, level rover) `near_column_step` level columns span
+    /// at most `near_column_span_m` decides every `near_column_step`-th column instead of
+    /// every `column_step`-th; a column between two decided ones takes their linear blend
+    /// (Q4, rounded half up) where both have a disparity and they agree within 1 px.
+    pub near_column_step: u8,
+    /// Ground span, metres across, of `near_column_step` level columns up to which a row
+    /// takes the near step (finite, >= 0; 0: never).
+    pub near_column_span_m: f32,
     /// Clip of the Sobel pre-filter, gray levels (1..=63).
     pub prefilter_cap: u8,
     /// The runner-up cost must be at least this many percent above the winner's (0..=50).
@@ -131,7 +142,7 @@ pub struct StereoParams {
 
 impl Default for StereoParams {
     /// 0.30 m baseline, 2x reduction, rows not reduced further, 7 x 7 window, every other
-    /// column decided, cap 31, 10 % uniqueness, gap 1 per pixel, left-right check, support
+    /// column decided (every fourth where four columns span at most 0.25 m), cap 31, 10 % uniqueness, gap 1 per pixel, left-right check, support
     /// 3, 25 sqrt(2) m range, relief +0.5 m / -2 m, 2 deg, up to two coarser scales where a
     /// quarter pixel moves the ground by at most 0.175 m (`docs/stereo.md`: the fix's
     /// accuracy on development seed 5 is the same from 0.125 to 0.35 m, and with every
@@ -145,6 +156,8 @@ impl Default for StereoParams {
             row_factor: 1,
             radius_rows_px: 3,
             column_step: 2,
+            near_column_step: 4,
+            near_column_span_m: 0.25,
             prefilter_cap: 31,
             uniqueness_pct: 10,
             min_gap_per_px: 1,
@@ -412,7 +425,7 @@ impl StereoRig {
         if !(p.baseline_m.is_finite() && p.baseline_m > 0.0 && p.baseline_m <= 10.0) {
             return Err(StereoError::Baseline);
         }
-        let checks: [(bool, &'static str); 14] = [
+        let checks: [(bool, &'static str); 16] = [
             ((1..=4).contains(&p.downsample), "downsample must be 1..=4"),
             (
                 (1..=MAX_RADIUS).contains(&p.radius_px),
@@ -422,6 +435,14 @@ impl StereoRig {
             (
                 (1..=2).contains(&p.column_step),
                 "column_step must be 1 or 2",
+            ),
+            (
+                (1..=4).contains(&p.near_column_step) && p.near_column_step >= p.column_step,
+                "near_column_step must be 1..=4 and at least column_step",
+            ),
+            (
+                p.near_column_span_m.is_finite() && p.near_column_span_m >= 0.0,
+                "near_column_span_m must be finite and >= 0",
             ),
             (
                 (1..=MAX_RADIUS).contains(&p.radius_rows_px),

@@ -219,7 +219,7 @@ fn match_row(
                 *a = *a + ci - co;
             }
         }
-        if m.step == 2 && (x - m.r) % 2 == 1 {
+        if (x - m.r) % m.step.max(1) != 0 {
             continue;
         }
         let (mut best, mut bi) = (u16::MAX, 0usize);
@@ -306,22 +306,26 @@ fn match_row(
         }
         rep.rejected_lr += lr;
     }
-    if m.step == 2 {
-        // Columns between decided ones: their neighbours' mean when both agree within 1 px.
-        for x in (m.r + 1..m.w - m.r).step_by(2) {
-            let a = disp.get(x - 1).copied().unwrap_or(0);
-            let b = if x + 1 < m.w - m.r {
-                disp.get(x + 1).copied().unwrap_or(0)
+    if m.step > 1 {
+        // Columns between decided ones: the linear blend of the two decided columns on
+        // either side when both agree within 1 px (rounded half up).
+        let (lo, hi, n) = (m.r, m.w - m.r, m.step);
+        for x in lo..hi {
+            let k = (x - lo) % n;
+            if k == 0 {
+                continue;
+            }
+            let a = disp.get(x - k).copied().unwrap_or(0);
+            let b = if x - k + n < hi {
+                disp.get(x - k + n).copied().unwrap_or(0)
             } else {
                 0
             };
             let near = a != 0 && b != 0 && a.abs_diff(b) <= ONE_Q;
+            let v = (u64::from(a) * (n - k) as u64 + u64::from(b) * k as u64 + (n / 2) as u64)
+                / n as u64;
             if let Some(o) = disp.get_mut(x) {
-                *o = if near {
-                    (u32::from(a) + u32::from(b)).div_ceil(2) as u16
-                } else {
-                    0
-                };
+                *o = if near { v as u16 } else { 0 };
             }
         }
     }
@@ -633,7 +637,7 @@ fn run_level(
                 gap: area * u32::from(p.min_gap_per_px),
                 lr: p.lr_check,
                 sub: p.subpixel,
-                step: usize::from(p.column_step),
+                step: rig.scales().column_step(l, y),
             };
             let drow = &mut disp[(y % 3) * w..(y % 3) * w + w];
             match_row(&m, colsum, agg, rbc, rbd, drow, rep);
@@ -773,12 +777,15 @@ mod tests {
                     height_m: 1.5 + 0.1 * rng.below(10) as f32,
                     tilt_deg: 10.0 + rng.below(20) as f32,
                 };
+                let cs = 1 + rng.below(2) as u8;
                 let p = StereoParams {
                     baseline_m: 0.2 + 0.1 * rng.below(8) as f32,
                     downsample: 1 + rng.below(2) as u8,
                     radius_px: 1 + rng.below(7) as u8,
                     row_factor: 1 + rng.below(2) as u8,
-                    column_step: 1 + rng.below(2) as u8,
+                    column_step: cs,
+                    near_column_step: cs + rng.below(5 - u32::from(cs)) as u8,
+                    near_column_span_m: [0.0, 0.25, 1.0, 100.0][rng.below(4) as usize],
                     radius_rows_px: 1 + rng.below(7) as u8,
                     prefilter_cap: [1, 15, 31, 63][rng.below(4) as usize],
                     uniqueness_pct: rng.below(30) as u8,
@@ -867,8 +874,11 @@ mod tests {
                 // Rows reduced by two more (a shorter window down) in two cases.
                 row_factor: 1 + (case as u8 & 1),
                 radius_rows_px: [3, 1, 3, 2][case],
-                // Every other column decided in two cases.
+                // Every other column decided in two cases; every second, third or fourth
+                // in the near rows in three.
                 column_step: [1, 2, 2, 1][case],
+                near_column_step: [1, 4, 2, 3][case],
+                near_column_span_m: [0.25, 0.25, 0.5, 1.0][case],
                 ..StereoParams::default()
             };
             let rig = StereoRig::new(&cam, &p).unwrap();

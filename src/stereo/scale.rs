@@ -45,6 +45,12 @@ pub struct Scales {
     height: usize,
     /// Working rows per row of level 0 (`StereoParams::row_factor`).
     row_factor: usize,
+    /// First row of each level's image from which on every row decides every
+    /// `near_step`-th column (`height` of the level when none does).
+    near_from: [usize; LEVELS],
+    /// Columns decided: `StereoParams::column_step` and `near_column_step`.
+    step: usize,
+    near_step: usize,
     /// Flat-ground slope of working row `y`'s centre ray: `s(y) = s0 + y ds`
     /// (`s = sin t + yn cos t`, `h / s` its flat-ground depth), for the rows of a coarse
     /// row ([`Scales::row_scale_q15`]).
@@ -100,6 +106,24 @@ impl Scales {
             }
             used = l + 1;
         }
+        // Near rows decide every `near_step`-th column: from the first level row from which
+        // on that many columns span at most `near_column_span_m` at every row's flat ground
+        // (the span shrinks down the image).
+        let near_step = usize::from(params.near_column_step.max(params.column_step).max(1));
+        let near_from = geo.map(|g| {
+            let h_l = g.size().1;
+            let mut q0 = h_l;
+            while q0 > 0 {
+                let near = g
+                    .column_span_m(q0 - 1, camera.tilt_deg)
+                    .is_some_and(|m| m * near_step as f32 <= params.near_column_span_m);
+                if !near {
+                    break;
+                }
+                q0 -= 1;
+            }
+            q0
+        });
         let k = camera.height_px as f32 / height.max(1) as f32;
         let f = camera.focal_px() / k;
         let t = camera.tilt_deg.to_radians();
@@ -114,6 +138,9 @@ impl Scales {
             first_of: geo.map(|g| g.first_active()),
             height,
             row_factor: rf,
+            near_from,
+            step: usize::from(params.column_step.max(1)),
+            near_step,
             s0: st + (0.5 - cy) / f * ct,
             ds: ct / f,
         };
@@ -125,6 +152,15 @@ impl Scales {
             })
             .unwrap_or(height);
         me
+    }
+
+    /// Columns row `q` of level `l` decides: every `column_step`-th, or every
+    /// `near_column_step`-th in the near rows (`StereoParams`).
+    pub fn column_step(&self, l: usize, q: usize) -> usize {
+        match self.near_from.get(l) {
+            Some(&from) if q >= from => self.near_step,
+            _ => self.step,
+        }
     }
 
     /// Working rows per row of level `l` (`row_factor * 2^l`, at least 1).

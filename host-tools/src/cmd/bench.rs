@@ -80,6 +80,14 @@ pub struct Args {
     /// column, the columns between take their neighbours' mean where they agree).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().column_step)]
     column_step: u8,
+    /// stereo: every N-th column decided in the near rows (1..=4, at least --column-step;
+    /// the rows where N columns span at most --near-column-span metres of flat ground).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().near_column_step)]
+    near_column_step: u8,
+    /// stereo: ground span, metres, of --near-column-step columns up to which a row is
+    /// near (0: none).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().near_column_span_m)]
+    near_column_span: f32,
     /// stereo: aggregation radius down, rows of the level image (1..=7).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().radius_rows_px)]
     radius_rows: u8,
@@ -154,6 +162,8 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         scale_error_m: args.scale_error,
         row_factor: args.row_factor,
         column_step: args.column_step,
+        near_column_step: args.near_column_step,
+        near_column_span_m: args.near_column_span,
         radius_rows_px: args.radius_rows,
         subpixel: args.subpixel.into(),
         ..Default::default()
