@@ -142,12 +142,14 @@ pub struct StereoParams {
 
 impl Default for StereoParams {
     /// 0.30 m baseline, 2x reduction, rows not reduced further, 7 x 7 window, every other
-    /// column decided (every fourth where four columns span at most 0.25 m), cap 31, 10 % uniqueness, gap 1 per pixel, left-right check, support
-    /// 3, 25 sqrt(2) m range, relief +0.5 m / -2 m, 2 deg, up to two coarser scales where a
-    /// quarter pixel moves the ground by at most 0.175 m (`docs/stereo.md`: the fix's
-    /// accuracy on development seed 5 is the same from 0.125 to 0.35 m, and with every
-    /// other column decided; above 0.175 m the bad-pixel rate of the OpenCV benchmark,
-    /// counted in working-size pixels, passes 1.5x SGBM's with every column decided).
+    /// column decided (every fourth where four columns span at most 0.25 m), cap 31, 10 %
+    /// uniqueness, gap 1 per pixel, left-right check, support 3, 25 sqrt(2) m range, relief
+    /// +1 m / -2 m (+0.5 m until 2026-12-04; `docs/stereo.md`, "Relief searched 1 m above
+    /// the ground"), 2 deg, up to two coarser scales where a quarter
+    /// pixel moves the ground by at most 0.175 m (`docs/stereo.md`: the fix's accuracy on
+    /// development seed 5 is the same from 0.125 to 0.35 m, and with every other column
+    /// decided; above 0.175 m the bad-pixel rate of the OpenCV benchmark, counted in
+    /// working-size pixels, passes 1.5x SGBM's with every column decided).
     fn default() -> Self {
         Self {
             baseline_m: DEFAULT_BASELINE_M,
@@ -165,7 +167,7 @@ impl Default for StereoParams {
             subpixel: SubPixel::Parabola,
             min_support: 3,
             max_ground_range_m: 35.355_34,
-            relief_above_m: 0.5,
+            relief_above_m: 1.0,
             relief_below_m: 2.0,
             attitude_margin_deg: 2.0,
             scale_levels: 2,
