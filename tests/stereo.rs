@@ -80,14 +80,18 @@ fn setup(params: &StereoParams) -> Run {
 fn flat_ground_disparity_and_depth() {
     // Every column decided, every other one with the ones between filled, and the default
     // (every other one, every fourth in the near rows); relief searched 0.5 m and 1 m above.
+    // Near rows of the working size in pairs, or not.
     for (column_step, near_column_step) in [(1, 1), (2, 2), (2, 4)] {
         for relief_above_m in [0.5, 1.0] {
-            flat_ground_with(StereoParams {
-                column_step,
-                near_column_step,
-                relief_above_m,
-                ..StereoParams::default()
-            });
+            for pair_rows_m in [0.0, 0.25] {
+                flat_ground_with(StereoParams {
+                    column_step,
+                    near_column_step,
+                    relief_above_m,
+                    pair_rows_m,
+                    ..StereoParams::default()
+                });
+            }
         }
     }
 }
@@ -137,9 +141,10 @@ fn flat_ground_with(p: StereoParams) {
                 continue;
             }
             n += 1;
-            // Error in pixels of the row's level (coarser levels: 2^l working pixels).
-            let l = run.rig.scales().level_of_row(y);
-            let e = (d as f32 / 16.0 - dt).abs() / (1 << l) as f32;
+            // Error in pixels of the row's level (coarser levels: 2^l working pixels; the
+            // paired rows have the working size's columns).
+            let sc = run.rig.scales();
+            let e = (d as f32 / 16.0 - dt).abs() / (1 << sc.col_shift(sc.level_of_row(y))) as f32;
             err_sum += e;
             good += usize::from(e <= 0.5);
         }
@@ -419,6 +424,8 @@ fn near_rows_are_the_coarser_rig_expanded_and_far_rows_the_working_size_rig() {
         row_factor: 1,
         radius_rows_px: 3,
         scale_error_m: 0.125,
+        // No paired rows: every row either level 0's or level 1's.
+        pair_rows_m: 0.0,
         ..StereoParams::default()
     };
     let (l, r) = ground_pair(&cam, p.baseline_m, 0);

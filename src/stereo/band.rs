@@ -857,7 +857,7 @@ fn finish_row_in<const A: bool, const B: bool>(
     rep: &mut BandReport,
 ) -> u64 {
     let w = cur.len();
-    let s = 1usize << fin.level;
+    let s = 1usize << fin.shift;
     let support = u32::from(fin.support);
     let (mut valid, mut speck) = (0u64, 0u64);
     if above.len() < w || below.len() < w || out.len() < w * s {
@@ -897,7 +897,7 @@ fn finish_row_in<const A: bool, const B: bool>(
             }
         }
         // Working-size disparity, Q4 (at most 2^18: no overflow).
-        let dw = u32::from(d) << fin.level;
+        let dw = u32::from(d) << fin.shift;
         let v = match fin.mode {
             Output::DisparityQ4 => dw.min(u32::from(u16::MAX)) as u16,
             Output::DepthMm => {
@@ -1002,7 +1002,10 @@ struct Finish<'s> {
     support: u8,
     mode: Output,
     depth_k: u32,
+    /// The slot ([`super::scale::SLOTS`]) of the rows.
     level: usize,
+    /// Its working columns per column, as a shift.
+    shift: usize,
     /// The rig's levels (rows per level row, the flat-ground row scales).
     scales: &'s super::scale::Scales,
 }
@@ -1136,7 +1139,7 @@ impl<'a> StereoView<'a> {
         }
         let p = &rig.params;
         let r = usize::from(p.radius_px);
-        let rv = usize::from(p.radius_rows_px);
+        let rv = rig.scales.radius_rows(l);
         let m = rig.scales.rows_per(l);
         // Level rows holding the band's rows; rows `c0..end` must be matched.
         // `checked_div`: no panic path (`m >= 1`).
@@ -1159,6 +1162,7 @@ impl<'a> StereoView<'a> {
             mode,
             depth_k: rig.depth_k,
             level: l,
+            shift: rig.scales.col_shift(l),
             scales: &rig.scales,
         };
         let Stream {
@@ -1173,10 +1177,7 @@ impl<'a> StereoView<'a> {
             tags,
             w,
             h,
-            (
-                usize::from(p.downsample) << l,
-                (usize::from(p.downsample) << l) * usize::from(p.row_factor),
-            ),
+            rig.scales.reduction(l, usize::from(p.downsample)),
             2 * rv + 2,
             p.prefilter_cap,
         );
@@ -1396,14 +1397,14 @@ fn finish(
     let valid = finish_row(above, cur, below, fin, o, rep);
     if m <= 1 {
         // Working-size pixels with data: each level pixel covers 2^l across.
-        rep.valid += valid << l;
+        rep.valid += valid << fin.shift;
         return;
     }
     // The working rows of `q` from its disparities and its neighbours'
     // ([`super::expand`]): the later rows first (the first row tells which pixels passed),
     // then the first in place.
     let place = |y: usize| RowPlace {
-        level: l,
+        level: fin.shift,
         rows: m,
         offset: y - q * m,
         flat_q15: fin.scales.row_scale_q15(l, q, y, false),
@@ -1424,7 +1425,7 @@ fn finish(
         .enumerate()
     {
         let y = ya + 1 + i;
-        let passed = Passed::Row(first_row, 1 << l);
+        let passed = Passed::Row(first_row, 1 << fin.shift);
         written += expand_row(cur, side(y), passed, dst, &place(y), fin.mode, fin.depth_k);
     }
     written += expand_row(

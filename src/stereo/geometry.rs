@@ -44,8 +44,19 @@ pub struct RowRanges {
 impl RowRanges {
     /// The ranges of matching level `level` (frames reduced by `downsample << level`).
     pub(crate) fn new(camera: &CameraParams, p: &StereoParams, level: u8) -> Self {
+        Self::with_rows(camera, p, level, 1)
+    }
+
+    /// As [`RowRanges::new`] with the rows reduced `row_mult` times more (the paired rows of
+    /// [`super::scale`]).
+    pub(crate) fn with_rows(
+        camera: &CameraParams,
+        p: &StereoParams,
+        level: u8,
+        row_mult: u32,
+    ) -> Self {
         let factor = u32::from(p.downsample) << level.min(8);
-        let rf = u32::from(p.row_factor.max(1));
+        let rf = u32::from(p.row_factor.max(1)) * row_mult.max(1);
         let width = camera.width_px.checked_div(factor).unwrap_or(0) as usize;
         let height = camera.height_px.checked_div(factor * rf).unwrap_or(0) as usize;
         let k = factor as f32;
@@ -93,6 +104,20 @@ impl RowRanges {
         }
         let z = self.h / s;
         Some(z * z / (4.0 * self.fb))
+    }
+
+    /// Ground span down row `v` of this level, metres: the flat ground's depth under its top
+    /// edge less that under its bottom edge (level rover at tilt `tilt_deg`), or `None`
+    /// when the top edge sees no ground.
+    pub fn row_ground_span_m(&self, v: usize, tilt_deg: f32) -> Option<f32> {
+        let t = tilt_deg.to_radians();
+        let (st, ct) = (libm::sinf(t), libm::cosf(t));
+        let s = |e: f32| st + (e - self.cy) / self.focal_rows * ct;
+        let (top, bottom) = (s(v as f32), s(v as f32 + 1.0));
+        if top.is_nan() || top <= 0.0 {
+            return None;
+        }
+        Some(self.h / top - self.h / bottom)
     }
 
     /// Ground span across one column of this level, metres, at the flat ground under the

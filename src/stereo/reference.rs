@@ -20,7 +20,7 @@ pub(super) fn words_len(w: usize, d: usize) -> usize {
 /// union of all of its rows' disparities.
 pub(super) fn ref_words_len(rig: &StereoRig) -> usize {
     let sc = rig.scales();
-    (0..sc.used())
+    sc.slots()
         .map(|l| {
             let g = sc.level(l);
             words_len(g.size().0, g.max_disparities())
@@ -468,21 +468,22 @@ pub(super) fn run(
         let m = sc.rows_per(l);
         let (qa, qb) = (y / m, (yb - 1) / m + 1);
         let wl = sc.level(l).size().0;
+        let sh = sc.col_shift(l);
         let mut level_rows =
             |q: usize, vals: &[u16], above: Option<&[u16]>, cur: &[u16], below: Option<&[u16]>| {
                 for yy in (q * m).max(y)..((q + 1) * m).min(yb) {
                     let o = &mut out[(yy - y0) * w..(yy - y0 + 1) * w];
                     if m == 1 {
                         for (x, &v) in vals.iter().enumerate() {
-                            for c in 0..1usize << l {
-                                o[(x << l) + c] = v;
+                            for c in 0..1usize << sh {
+                                o[(x << sh) + c] = v;
                             }
                         }
                         continue;
                     }
                     // Rows of a coarse level row: the shared expansion (not what is tested).
                     let place = RowPlace {
-                        level: l,
+                        level: sh,
                         rows: m,
                         offset: yy - q * m,
                         flat_q15: sc.row_scale_q15(l, q, yy, false),
@@ -539,7 +540,7 @@ fn run_level(
     let (w, h) = geo.size();
     let p = &rig.params;
     let r = usize::from(p.radius_px);
-    let rv = usize::from(p.radius_rows_px);
+    let rv = rig.scales().radius_rows(l);
     let ring = 2 * rv + 2;
     let (ds_l, rest) = bytes.split_at_mut(3 * w);
     let (ds_r, rest) = rest.split_at_mut(3 * w);
@@ -552,10 +553,7 @@ fn run_level(
         f_tag: [0; RING_MAX],
         w,
         h,
-        k: (
-            usize::from(p.downsample) << l,
-            (usize::from(p.downsample) << l) * usize::from(p.row_factor),
-        ),
+        k: rig.scales().reduction(l, usize::from(p.downsample)),
         ring,
         cap: p.prefilter_cap,
     };
@@ -608,7 +606,7 @@ fn run_level(
             p.min_support,
             mode,
             rig.depth_k,
-            l,
+            rig.scales().col_shift(l),
             row_out,
             rep,
         );
@@ -778,6 +776,7 @@ mod tests {
                     tilt_deg: 10.0 + rng.below(20) as f32,
                 };
                 let cs = 1 + rng.below(2) as u8;
+                let rv = 1 + rng.below(7) as u8;
                 let p = StereoParams {
                     baseline_m: 0.2 + 0.1 * rng.below(8) as f32,
                     downsample: 1 + rng.below(2) as u8,
@@ -786,7 +785,9 @@ mod tests {
                     column_step: cs,
                     near_column_step: cs + rng.below(5 - u32::from(cs)) as u8,
                     near_column_span_m: [0.0, 0.25, 1.0, 100.0][rng.below(4) as usize],
-                    radius_rows_px: 1 + rng.below(7) as u8,
+                    pair_rows_m: [0.0, 0.25, 1.0, 100.0][rng.below(4) as usize],
+                    pair_radius_rows_px: 1 + rng.below(u32::from(rv)) as u8,
+                    radius_rows_px: rv,
                     prefilter_cap: [1, 15, 31, 63][rng.below(4) as usize],
                     uniqueness_pct: rng.below(30) as u8,
                     min_gap_per_px: rng.below(3) as u8,
@@ -879,6 +880,9 @@ mod tests {
                 column_step: [1, 2, 2, 1][case],
                 near_column_step: [1, 4, 2, 3][case],
                 near_column_span_m: [0.25, 0.25, 0.5, 1.0][case],
+                // Near rows of the working size in pairs in three cases.
+                pair_rows_m: [0.25, 0.0, 0.5, 1.0][case],
+                pair_radius_rows_px: [2, 1, 1, 2][case],
                 ..StereoParams::default()
             };
             let rig = StereoRig::new(&cam, &p).unwrap();

@@ -27,27 +27,41 @@ use crate::camera::CameraParams;
 /// Matching levels a rig can have: the working size and two coarser scales (2x, 4x).
 pub const LEVELS: usize = 3;
 
+/// Matching scales a rig can have: the levels, then level 0 with its rows in pairs.
+pub const SLOTS: usize = LEVELS + 1;
+
+/// The slot of level 0's paired rows: the working size's columns, rows reduced twice more
+/// (`StereoParams::pair_rows_m`).
+pub const PAIRED: usize = LEVELS;
+
 /// The per-row matching levels of one rig, with each level's disparity ranges.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scales {
-    geo: [RowRanges; LEVELS],
+    /// The ranges of each slot: levels 0, 1, 2 and the paired rows ([`PAIRED`]).
+    geo: [RowRanges; SLOTS],
     /// Levels in use (1..=LEVELS): levels `used..` are never chosen.
     used: usize,
-    /// First working row of each level (`height` when the level has no rows).
-    start: [usize; LEVELS],
-    /// One past the last working row of each level.
-    end: [usize; LEVELS],
+    /// Whether the paired rows are in use.
+    paired: bool,
+    /// Window radius down of the paired rows, rows of that slot.
+    pair_radius: usize,
+    /// Window radius down of the levels, rows of the level.
+    radius: usize,
+    /// First working row of each slot (`height` when the slot has no rows).
+    start: [usize; SLOTS],
+    /// One past the last working row of each slot.
+    end: [usize; SLOTS],
     /// First working row that is matched (sees ground at its level), `height` if none.
     first: usize,
-    /// First row of each level's image that sees ground (that level's rows).
-    first_of: [usize; LEVELS],
+    /// First row of each slot's image that sees ground (that slot's rows).
+    first_of: [usize; SLOTS],
     /// Working height, rows.
     height: usize,
     /// Working rows per row of level 0 (`StereoParams::row_factor`).
     row_factor: usize,
     /// First row of each level's image from which on every row decides every
     /// `near_step`-th column (`height` of the level when none does).
-    near_from: [usize; LEVELS],
+    near_from: [usize; SLOTS],
     /// Columns decided: `StereoParams::column_step` and `near_column_step`.
     step: usize,
     near_step: usize,
@@ -70,43 +84,61 @@ impl Scales {
         params: &StereoParams,
         usable: impl Fn(&RowRanges) -> bool,
     ) -> Self {
-        let geo: [RowRanges; LEVELS] = [0u8, 1, 2].map(|l| RowRanges::new(camera, params, l));
+        let geo: [RowRanges; SLOTS] = [(0u8, 1u32), (1, 1), (2, 1), (0, 2)]
+            .map(|(l, m)| RowRanges::with_rows(camera, params, l, m));
         let rf = usize::from(params.row_factor.max(1));
         let height = camera
             .height_px
             .checked_div(u32::from(params.downsample))
             .unwrap_or(0) as usize;
-        // Working rows per row of level `l`.
-        let per = |l: usize| rf << l;
-        let mut start = [height; LEVELS];
-        let mut end = [height; LEVELS];
+        // Working rows per row of slot `l`.
+        let per = |l: usize| if l == PAIRED { 2 * rf } else { rf << l };
+        let mut start = [height; SLOTS];
+        let mut end = [height; SLOTS];
         start[0] = 0;
         let mut used = 1;
+        // Slot `l`'s rows from the bottom up while `ok(row)`: `(start, end)` in working rows.
+        let bottom_up = |l: usize, ok: &dyn Fn(&RowRanges, usize) -> bool| {
+            let g = &geo[l.min(SLOTS - 1)];
+            let h_l = g.size().1;
+            let mut q0 = h_l;
+            while q0 > 0 && g.row(q0 - 1).is_some() && ok(g, q0 - 1) {
+                q0 -= 1;
+            }
+            ((q0 * per(l)).min(height), (h_l * per(l)).min(height))
+        };
         let wanted = usize::from(params.scale_levels).min(LEVELS - 1);
-        for (l, g) in geo.iter().enumerate().take(wanted + 1).skip(1) {
-            if !usable(g) {
+        for l in 1..=wanted {
+            if !geo.get(l).is_some_and(&usable) {
                 break;
             }
-            let h_l = g.size().1;
-            // Coarse rows from the bottom up while eligible.
-            let mut q0 = h_l;
-            while q0 > 0 {
-                let q = q0 - 1;
-                let ok = g.row(q).is_some()
-                    && g.quarter_px_depth_error(q, camera.tilt_deg)
-                        .is_some_and(|e| e <= params.scale_error_m);
-                if !ok {
-                    break;
-                }
-                q0 = q;
-            }
-            if let (Some(s), Some(e)) = (start.get_mut(l), end.get_mut(l)) {
-                *s = (q0 * per(l)).min(height);
-                *e = (h_l * per(l)).min(height);
+            let (s, e) = bottom_up(l, &|g, q| {
+                g.quarter_px_depth_error(q, camera.tilt_deg)
+                    .is_some_and(|e| e <= params.scale_error_m)
+            });
+            if let (Some(a), Some(b)) = (start.get_mut(l), end.get_mut(l)) {
+                (*a, *b) = (s, e);
             }
             used = l + 1;
         }
-        // Near rows decide every `near_step`-th column: from the first level row from which
+        // Level 0's rows in pairs where the flat ground of a pair spans at most
+        // `pair_rows_m` down the image.
+        let pair_radius = usize::from(params.pair_radius_rows_px.max(1));
+        let mut paired = false;
+        if params.pair_rows_m > 0.0
+            && usable(&geo[PAIRED])
+            && geo[PAIRED].size().1 >= 2 * pair_radius + 2
+        {
+            let (s, e) = bottom_up(PAIRED, &|g, q| {
+                g.row_ground_span_m(q, camera.tilt_deg)
+                    .is_some_and(|m| m <= params.pair_rows_m)
+            });
+            if s < e {
+                (start[PAIRED], end[PAIRED]) = (s, e);
+                paired = true;
+            }
+        }
+        // Near rows decide every `near_step`-th column: from the first slot row from which
         // on that many columns span at most `near_column_span_m` at every row's flat ground
         // (the span shrinks down the image).
         let near_step = usize::from(params.near_column_step.max(params.column_step).max(1));
@@ -132,6 +164,9 @@ impl Scales {
         let mut me = Self {
             geo,
             used,
+            paired,
+            pair_radius,
+            radius: usize::from(params.radius_rows_px.max(1)),
             start,
             end,
             first: height,
@@ -163,9 +198,48 @@ impl Scales {
         }
     }
 
-    /// Working rows per row of level `l` (`row_factor * 2^l`, at least 1).
+    /// Working rows per row of slot `l` (`row_factor * 2^l` for level `l`, `2 row_factor`
+    /// for the paired rows; at least 1).
     pub fn rows_per(&self, l: usize) -> usize {
-        (self.row_factor << l.min(LEVELS)).max(1)
+        if l == PAIRED {
+            2 * self.row_factor.max(1)
+        } else {
+            (self.row_factor << l.min(LEVELS)).max(1)
+        }
+    }
+
+    /// Working columns per column of slot `l`, as a shift (the level; 0 for the paired
+    /// rows).
+    pub fn col_shift(&self, l: usize) -> usize {
+        if l == PAIRED {
+            0
+        } else {
+            l.min(LEVELS - 1)
+        }
+    }
+
+    /// Window radius down in slot `l`, rows of that slot (`StereoParams::radius_rows_px`,
+    /// `pair_radius_rows_px` for the paired rows).
+    pub fn radius_rows(&self, l: usize) -> usize {
+        if l == PAIRED {
+            self.pair_radius
+        } else {
+            self.radius
+        }
+    }
+
+    /// Frame reduction of slot `l` across and down (`downsample` times its columns and
+    /// rows per working pixel).
+    pub fn reduction(&self, l: usize, downsample: usize) -> (usize, usize) {
+        (
+            downsample << self.col_shift(l),
+            downsample * self.rows_per(l),
+        )
+    }
+
+    /// The slots in use: the levels in use, then the paired rows if in use.
+    pub fn slots(&self) -> impl Iterator<Item = usize> + Clone {
+        (0..self.used).chain(self.paired.then_some(PAIRED))
     }
 
     /// The scale, Q15 ([`ROW_SCALE_BITS`]), that takes the depth (`depth`) or the
@@ -208,21 +282,23 @@ impl Scales {
         self.used
     }
 
-    /// The level working row `y` is matched at.
+    /// The slot working row `y` is matched at: the coarsest level in use whose rows hold
+    /// it, else the paired rows if they hold it, else level 0.
     pub fn level_of_row(&self, y: usize) -> usize {
+        let holds = |l: usize| matches!((self.start.get(l), self.end.get(l)), (Some(&s), Some(&e)) if s <= y && y < e);
         (1..self.used)
             .rev()
-            .find(|&l| {
-                matches!((self.start.get(l), self.end.get(l)), (Some(&s), Some(&e)) if s <= y && y < e)
-            })
+            .find(|&l| holds(l))
+            .or_else(|| (self.paired && holds(PAIRED)).then_some(PAIRED))
             .unwrap_or(0)
     }
 
     /// First working row of level `l` and one past its last (`(height, height)` when the
     /// level has no rows; level 0 spans the image).
     pub fn rows_of_level(&self, l: usize) -> (usize, usize) {
+        let in_use = l < self.used || (l == PAIRED && self.paired);
         match (self.start.get(l), self.end.get(l)) {
-            (Some(&s), Some(&e)) if l < self.used && s < e => (s, e),
+            (Some(&s), Some(&e)) if in_use && s < e => (s, e),
             _ => (self.height, self.height),
         }
     }
@@ -239,10 +315,8 @@ impl Scales {
 
     /// The largest number of disparities of any band at any level in use.
     pub fn max_disparities(&self) -> usize {
-        self.geo
-            .iter()
-            .take(self.used)
-            .map(RowRanges::max_disparities)
+        self.slots()
+            .map(|l| self.level(l).max_disparities())
             .max()
             .unwrap_or(0)
     }
@@ -273,6 +347,7 @@ mod tests {
         let p = StereoParams {
             row_factor: 1,
             scale_error_m: 0.125,
+            pair_rows_m: 0.0,
             ..StereoParams::default()
         };
         let s = Scales::new(&cam, &p, |_| true);
@@ -323,6 +398,7 @@ mod tests {
             scale_levels: 2,
             scale_error_m: 0.3,
             row_factor: 1,
+            pair_rows_m: 0.0,
             ..StereoParams::default()
         };
         let s = Scales::new(&cam, &p, |_| true);
@@ -387,5 +463,53 @@ mod tests {
         // At the working size (level 0 of a `row_factor` 1 rig) the scale is 1.
         let s1 = Scales::new(&cam, &StereoParams { row_factor: 1, ..p }, |_| true);
         assert_eq!(s1.row_scale_q15(0, 100, 100, true), 1 << ROW_SCALE_BITS);
+    }
+
+    #[test]
+    fn near_rows_of_the_working_size_go_in_pairs_where_a_pair_spans_little_ground() {
+        let cam = CameraParams::default();
+        let p = StereoParams {
+            pair_rows_m: 0.25,
+            ..StereoParams::default()
+        };
+        let s = Scales::new(&cam, &p, |_| true);
+        let (a, b) = s.rows_of_level(PAIRED);
+        let (a1, _) = s.rows_of_level(1);
+        // Pairs from an even row down to the first row of level 1.
+        assert!(a < b && b == 180 && a % 2 == 0 && a < a1, "{a} {b} {a1}");
+        assert_eq!((s.rows_per(PAIRED), s.col_shift(PAIRED)), (2, 0));
+        assert_eq!(s.reduction(PAIRED, 2), (2, 4));
+        assert_eq!(s.radius_rows(PAIRED), usize::from(p.pair_radius_rows_px));
+        assert_eq!(s.level(PAIRED).size(), (320, 90));
+        assert_eq!(s.level(PAIRED).focal_px(), s.level(0).focal_px());
+        assert!(s.slots().any(|l| l == PAIRED));
+        // Every pair spans at most `pair_rows_m` of flat ground; the pair above more.
+        let g = s.level(PAIRED);
+        for y in a..a1 {
+            assert_eq!(s.level_of_row(y), PAIRED, "{y}");
+            let m = g.row_ground_span_m(y / 2, cam.tilt_deg).unwrap();
+            assert!(m <= p.pair_rows_m, "{y} {m}");
+        }
+        let above = g.row_ground_span_m(a / 2 - 1, cam.tilt_deg).unwrap();
+        assert!(above > p.pair_rows_m, "{above}");
+        assert_eq!(s.level_of_row(a - 1), 0);
+        // Two working rows' spans add up to their pair's.
+        let (g0, q) = (s.level(0), a / 2 + 3);
+        let two = g0.row_ground_span_m(2 * q, cam.tilt_deg).unwrap()
+            + g0.row_ground_span_m(2 * q + 1, cam.tilt_deg).unwrap();
+        let pair = g.row_ground_span_m(q, cam.tilt_deg).unwrap();
+        assert!((two - pair).abs() < 1e-4, "{two} {pair}");
+        // Less work than the same rig without pairs; none with `pair_rows_m` 0.
+        let none = Scales::new(
+            &cam,
+            &StereoParams {
+                pair_rows_m: 0.0,
+                ..p
+            },
+            |_| true,
+        );
+        assert_eq!(none.rows_of_level(PAIRED), (180, 180));
+        assert!(!none.slots().any(|l| l == PAIRED));
+        assert!(s.row_work(0, 180) < none.row_work(0, 180) * 9 / 10);
     }
 }

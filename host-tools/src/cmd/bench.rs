@@ -88,6 +88,13 @@ pub struct Args {
     /// near (0: none).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().near_column_span_m)]
     near_column_span: f32,
+    /// stereo: working rows matched in pairs where a pair spans at most this many metres of
+    /// flat ground down the image (0: none).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().pair_rows_m)]
+    pair_rows: f32,
+    /// stereo: aggregation radius down in the paired rows, pairs (1..=--radius-rows).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().pair_radius_rows_px)]
+    pair_radius_rows: u8,
     /// stereo: aggregation radius down, rows of the level image (1..=7).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().radius_rows_px)]
     radius_rows: u8,
@@ -164,6 +171,8 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         column_step: args.column_step,
         near_column_step: args.near_column_step,
         near_column_span_m: args.near_column_span,
+        pair_rows_m: args.pair_rows,
+        pair_radius_rows_px: args.pair_radius_rows,
         radius_rows_px: args.radius_rows,
         subpixel: args.subpixel.into(),
         ..Default::default()
