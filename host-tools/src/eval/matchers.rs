@@ -40,7 +40,7 @@ at most N metres), -spN (stereo sub-pixel fit: 0 parabola, 1 equiangular), -uN (
 cost gap per window pixel), -msN (stereo: support, neighbours of 8), -mdN (largest depth \
 reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks), -csN (stereo: \
 every N-th column decided, 1..2), -ncN (stereo: every N-th column decided in the near rows, \
-1..4), -nsN (stereo: ground span of those N columns up to which a row is near, metres; 0: none), -pmN (stereo: working rows \
+1..4; -cs1-nc1 decides every column everywhere), -nsN (stereo: ground span of those N columns up to which a row is near, metres; 0: none), -pmN (stereo: working rows \
 matched in pairs where a pair spans at most N metres of ground; 0: none), -prN (stereo: window radius \
 down in the paired rows, pairs), -dsN (stereo: frames reduced N times before matching, 1..4; the fix's width and disparity limits follow)";
 
