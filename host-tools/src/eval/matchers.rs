@@ -42,7 +42,8 @@ reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fe
 every N-th column decided, 1..2), -ncN (stereo: every N-th column decided in the near rows, \
 1..4; -cs1-nc1 decides every column everywhere), -nsN (stereo: ground span of those N columns up to which a row is near, metres; 0: none), -pmN (stereo: working rows \
 matched in pairs where a pair spans at most N metres of ground; 0: none), -prN (stereo: window radius \
-down in the paired rows, pairs), -dsN (stereo: frames reduced N times before matching, 1..4; the fix's width and disparity limits follow)";
+down in the paired rows, pairs), -mxN (stereo: most disparities \
+of a row the fix's scratch holds; wider reliefs need more), -dsN (stereo: frames reduced N times before matching, 1..4; the fix's width and disparity limits follow)";
 
 /// The fix configuration behind a fix matcher name (`fix`, `fix-ncc`, `fix-signed`, `cnn`,
 /// each optionally followed by [`FIX_OPTIONS`]), `None` for a baseline (or a fix name with
@@ -103,7 +104,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         let (key, value) = part.split_at(at);
         if ![
             "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
-            "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr",
+            "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr", "mx",
         ]
         .contains(&key)
         {
@@ -155,6 +156,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "nc" => m.near_column_step = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "ns" => m.near_column_span_m = v,
             "pm" => m.pair_rows_m = v,
+            "mx" => cfg.stereo.max_disparities = whole(v)? as usize,
             "pr" => m.pair_radius_rows_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "rf" => m.row_factor = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "rr" => m.radius_rows_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
