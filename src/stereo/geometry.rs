@@ -91,46 +91,39 @@ impl RowRanges {
         (self.width, self.height)
     }
 
-    /// Depth error, metres, that a quarter-pixel disparity error at this level causes at
-    /// the flat ground under the top edge of row `v` (its farthest ground, level rover at
-    /// tilt `tilt_deg`: `dZ = Z^2 / (4 f B)`), or `None` when that edge sees no ground (at
-    /// or above the horizon).
-    pub fn quarter_px_depth_error(&self, v: usize, tilt_deg: f32) -> Option<f32> {
+    /// Depth, metres, of the flat ground under row edge `e` of this level (`e = v`: the top
+    /// edge of row `v`, its farthest ground; level rover at tilt `tilt_deg`), or `None` when
+    /// that edge sees no ground (at or above the horizon).
+    fn flat_depth_at_edge(&self, e: f32, tilt_deg: f32) -> Option<f32> {
         let t = tilt_deg.to_radians();
-        let yn = (v as f32 - self.cy) / self.focal_rows;
+        let yn = (e - self.cy) / self.focal_rows;
         let s = libm::sinf(t) + yn * libm::cosf(t);
         if s.is_nan() || s <= 0.0 {
             return None;
         }
-        let z = self.h / s;
+        Some(self.h / s)
+    }
+
+    /// Depth error, metres, that a quarter-pixel disparity error at this level causes at
+    /// the flat ground under the top edge of row `v` (its farthest ground: `dZ = Z^2 / (4 f
+    /// B)`), or `None` when that edge sees no ground.
+    pub fn quarter_px_depth_error(&self, v: usize, tilt_deg: f32) -> Option<f32> {
+        let z = self.flat_depth_at_edge(v as f32, tilt_deg)?;
         Some(z * z / (4.0 * self.fb))
     }
 
     /// Ground span down row `v` of this level, metres: the flat ground's depth under its top
-    /// edge less that under its bottom edge (level rover at tilt `tilt_deg`), or `None`
-    /// when the top edge sees no ground.
+    /// edge less that under its bottom edge, or `None` when the top edge sees no ground.
     pub fn row_ground_span_m(&self, v: usize, tilt_deg: f32) -> Option<f32> {
-        let t = tilt_deg.to_radians();
-        let (st, ct) = (libm::sinf(t), libm::cosf(t));
-        let s = |e: f32| st + (e - self.cy) / self.focal_rows * ct;
-        let (top, bottom) = (s(v as f32), s(v as f32 + 1.0));
-        if top.is_nan() || top <= 0.0 {
-            return None;
-        }
-        Some(self.h / top - self.h / bottom)
+        let top = self.flat_depth_at_edge(v as f32, tilt_deg)?;
+        let bottom = self.flat_depth_at_edge(v as f32 + 1.0, tilt_deg)?;
+        Some(top - bottom)
     }
 
     /// Ground span across one column of this level, metres, at the flat ground under the
-    /// top edge of row `v` (its farthest ground, level rover at tilt `tilt_deg`: `Z / f`),
-    /// or `None` when that edge sees no ground.
+    /// top edge of row `v` (`Z / f`), or `None` when that edge sees no ground.
     pub fn column_span_m(&self, v: usize, tilt_deg: f32) -> Option<f32> {
-        let t = tilt_deg.to_radians();
-        let yn = (v as f32 - self.cy) / self.focal_rows;
-        let s = libm::sinf(t) + yn * libm::cosf(t);
-        if s.is_nan() || s <= 0.0 {
-            return None;
-        }
-        Some(self.h / s / self.focal)
+        Some(self.flat_depth_at_edge(v as f32, tilt_deg)? / self.focal)
     }
 
     /// Focal length at the working size, pixels.

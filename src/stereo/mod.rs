@@ -50,6 +50,7 @@
 
 mod band;
 mod expand;
+mod fill;
 pub mod geometry;
 mod kernel;
 mod prefilter;

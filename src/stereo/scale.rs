@@ -72,6 +72,16 @@ pub struct Scales {
     ds: f32,
 }
 
+/// The first of rows `0..h` from which on `ok` holds for every row down to the last (`h`
+/// when it fails for the last): the run of rows at the image's bottom that `ok` accepts.
+fn first_of_run(h: usize, ok: impl Fn(usize) -> bool) -> usize {
+    let mut q0 = h;
+    while q0 > 0 && ok(q0 - 1) {
+        q0 -= 1;
+    }
+    q0
+}
+
 /// Fractional bits of [`Scales::row_scale_q15`].
 pub const ROW_SCALE_BITS: u32 = 15;
 
@@ -101,10 +111,7 @@ impl Scales {
         let bottom_up = |l: usize, ok: &dyn Fn(&RowRanges, usize) -> bool| {
             let g = &geo[l.min(SLOTS - 1)];
             let h_l = g.size().1;
-            let mut q0 = h_l;
-            while q0 > 0 && g.row(q0 - 1).is_some() && ok(g, q0 - 1) {
-                q0 -= 1;
-            }
+            let q0 = first_of_run(h_l, |q| g.row(q).is_some() && ok(g, q));
             ((q0 * per(l)).min(height), (h_l * per(l)).min(height))
         };
         let wanted = usize::from(params.scale_levels).min(LEVELS - 1);
@@ -143,18 +150,10 @@ impl Scales {
         // (the span shrinks down the image).
         let near_step = usize::from(params.near_column_step.max(params.column_step).max(1));
         let near_from = geo.map(|g| {
-            let h_l = g.size().1;
-            let mut q0 = h_l;
-            while q0 > 0 {
-                let near = g
-                    .column_span_m(q0 - 1, camera.tilt_deg)
-                    .is_some_and(|m| m * near_step as f32 <= params.near_column_span_m);
-                if !near {
-                    break;
-                }
-                q0 -= 1;
-            }
-            q0
+            first_of_run(g.size().1, |q| {
+                g.column_span_m(q, camera.tilt_deg)
+                    .is_some_and(|m| m * near_step as f32 <= params.near_column_span_m)
+            })
         });
         let k = camera.height_px as f32 / height.max(1) as f32;
         let f = camera.focal_px() / k;
