@@ -9,6 +9,7 @@
 //! does not depend on where the stream started or how the rows are cut into bands.
 
 use super::expand::{expand_row, Passed, RowPlace};
+use super::fill::fill_gaps;
 use super::kernel::{
     add_groups, column, decide, right_groups, slide, slide_min, threshold, update_columns,
     ColumnParams, LaneMin, UpdateCols, EDGE, UNIQUE,
@@ -807,11 +808,11 @@ fn finish_row_in<const A: bool, const B: bool>(
     let w = cur.len();
     let s = 1usize << fin.shift;
     let support = u32::from(fin.support);
-    let (mut valid, mut speck) = (0u64, 0u64);
-    if above.len() < w || below.len() < w || out.len() < w * s {
+    let (mut valid, mut speck) = (0u32, 0u32);
+    if above.len() < w || below.len() < w || out.len() < w * s || w == 0 {
         return 0;
     }
-    let (pa, pc, pb) = (above.as_ptr(), cur.as_ptr(), below.as_ptr());
+    let (pa, pc, pb, po) = (above.as_ptr(), cur.as_ptr(), below.as_ptr(), out.as_mut_ptr());
     for x in 0..w {
         // Safety: `x < w` and every row has at least `w` elements (checked above).
         let d = unsafe { *pc.add(x) };
@@ -819,26 +820,18 @@ fn finish_row_in<const A: bool, const B: bool>(
             continue;
         }
         if support > 0 {
-            // Within 1 px: `v - d + 16` in `0..=32` (as `u16`, wrapping), and not 0.
-            let near =
-                |v: u16| u32::from(v != 0 && v.wrapping_sub(d).wrapping_add(ONE_Q) <= 2 * ONE_Q);
-            let (l, r) = (x > 0, x + 1 < w);
-            // Safety: `x - 1` only when `x > 0`, `x + 1` only when `x + 1 < w`.
-            let at = |p: *const u16, i: usize, ok: bool| if ok { unsafe { *p.add(i) } } else { 0 };
-            // Counted until `support` is reached (the same verdict as counting all 8).
-            let mut n = 0;
-            let mut reached = |v: u16| {
-                n += near(v);
-                n >= support
+            // Safety: `x - 1` is read only when `x > 0`, `x + 1` only when `x + 1 < w`.
+            let ok = unsafe {
+                if x > 0 && x + 1 < w {
+                    supported::<A, B, true, true>(pa, pc, pb, x, d, support)
+                } else if x > 0 {
+                    supported::<A, B, true, false>(pa, pc, pb, x, d, support)
+                } else if x + 1 < w {
+                    supported::<A, B, false, true>(pa, pc, pb, x, d, support)
+                } else {
+                    supported::<A, B, false, false>(pa, pc, pb, x, d, support)
+                }
             };
-            let ok = reached(at(pc, x.wrapping_sub(1), l))
-                || reached(at(pc, x + 1, r))
-                || (A && reached(at(pa, x, true)))
-                || (B && reached(at(pb, x, true)))
-                || (A && reached(at(pa, x.wrapping_sub(1), l)))
-                || (A && reached(at(pa, x + 1, r)))
-                || (B && reached(at(pb, x.wrapping_sub(1), l)))
-                || (B && reached(at(pb, x + 1, r)));
             if !ok {
                 speck += 1;
                 continue;
@@ -857,13 +850,91 @@ fn finish_row_in<const A: bool, const B: bool>(
                 z as u16
             }
         };
-        if let Some(o) = out.get_mut(x * s..x * s + s) {
-            o.fill(v);
+        // Safety: `x * s + s <= w * s <= out.len()` (checked above).
+        unsafe {
+            let o = po.add(x * s);
+            match s {
+                1 => *o = v,
+                2 => {
+                    *o = v;
+                    *o.add(1) = v;
+                }
+                _ => {
+                    for i in 0..s {
+                        *o.add(i) = v;
+                    }
+                }
+            }
         }
         valid += 1;
     }
-    rep.rejected_speckle += speck;
-    valid
+    rep.rejected_speckle += u64::from(speck);
+    u64::from(valid)
+}
+
+/// Whether at least `support` (1..=8) of the 8 neighbours of `cur[x]` (disparity `d`, not 0)
+/// have a disparity within 1 px of it (Q4: `|v - d| <= 16`, `v` not 0); the row above
+/// counts where `A`, the row below where `B`, the left column where `L`, the right where
+/// `R`. Counted until `support` is reached (the same verdict as counting all 8).
+///
+/// # Safety
+/// `pa`, `pc` and `pb` point to rows of at least `x + 1` elements (`A` / `B` false: never
+/// read), and of `x + 2` when `R`; `x >= 1` when `L`.
+#[inline(always)]
+unsafe fn supported<const A: bool, const B: bool, const L: bool, const R: bool>(
+    pa: *const u16,
+    pc: *const u16,
+    pb: *const u16,
+    x: usize,
+    d: u16,
+    support: u32,
+) -> bool {
+    // `v` near `d`: `v` in `[lo, lo + span]` with `lo = max(d - 16, 1)` (so 0 never is),
+    // one unsigned compare.
+    let d = u32::from(d);
+    let lo = d.saturating_sub(u32::from(ONE_Q)).max(1);
+    let span = d + u32::from(ONE_Q) - lo;
+    let near = |p: *const u16, i: usize| -> u32 {
+        // Safety: the caller's bounds (`i` is `x - 1`, `x` or `x + 1` as `L` / `R` allow).
+        u32::from(u32::from(unsafe { *p.add(i) }).wrapping_sub(lo) <= span)
+    };
+    // Safety (every read below): `x - 1` only when `L`, `x + 1` only when `R`, rows above
+    // and below only when `A` / `B`.
+    let mut n = 0;
+    if L {
+        n += near(pc, x - 1);
+    }
+    if R {
+        n += near(pc, x + 1);
+    }
+    if A {
+        n += near(pa, x);
+    }
+    if n >= support {
+        return true;
+    }
+    if B {
+        n += near(pb, x);
+        if n >= support {
+            return true;
+        }
+    }
+    if A && L {
+        n += near(pa, x - 1);
+    }
+    if A && R {
+        n += near(pa, x + 1);
+    }
+    if n >= support {
+        return true;
+    }
+    if B && L {
+        n += near(pb, x - 1);
+    }
+    if B && R {
+        n += near(pb, x + 1);
+    }
+    n >= support
 }
 
 /// Checks the inputs of a band; returns the two frames.
@@ -954,6 +1025,8 @@ struct Finish<'s> {
     level: usize,
     /// Its working columns per column, as a shift.
     shift: usize,
+    /// Longest gap of a working row filled ([`super::fill::fill_gaps`]), pixels (0: off).
+    gap: usize,
     /// The rig's levels (rows per level row, the flat-ground row scales).
     scales: &'s super::scale::Scales,
 }
@@ -1111,6 +1184,7 @@ impl<'a> StereoView<'a> {
             depth_k: rig.depth_k,
             level: l,
             shift: rig.scales.col_shift(l),
+            gap: usize::from(p.gap_fill_px),
             scales: &rig.scales,
         };
         let Stream {
@@ -1346,6 +1420,7 @@ fn finish(
     if m <= 1 {
         // Working-size pixels with data: each level pixel covers 2^l across.
         rep.valid += valid << fin.shift;
+        rep.valid += fill_gaps(o, fin.gap, fin.mode, fin.depth_k);
         return;
     }
     // The working rows of `q` from its disparities and its neighbours'
@@ -1386,6 +1461,13 @@ fn finish(
         fin.depth_k,
     );
     rep.valid += written;
+    for row in out
+        .get_mut(first..first + (yb - ya) * bw)
+        .unwrap_or(&mut [])
+        .chunks_exact_mut(bw.max(1))
+    {
+        rep.valid += fill_gaps(row, fin.gap, fin.mode, fin.depth_k);
+    }
 }
 
 /// Rows `y0..y1` of the working-size output into `out` (`(y1 - y0) * width`, row-major),

@@ -1,7 +1,9 @@
 //! The columns a row did not decide (`StereoParams::column_step`, `near_column_step`):
-//! each takes the linear blend of the decided columns on either side where they agree.
+//! each takes the linear blend of the decided columns on either side where they agree; and
+//! short gaps of a finished working row (`StereoParams::gap_fill_px`): the pixels between
+//! two with data that agree within 1 px of disparity take their linear blend.
 
-use super::band::ONE_Q;
+use super::band::{Output, ONE_Q};
 
 /// Columns `x` of `lo + 1..hi` whose `x - lo` is not a multiple of `step` (not decided)
 /// take the linear blend of the decided columns on either side (Q4, rounded half up:
@@ -56,9 +58,83 @@ fn fill_by<const N: usize>(disp: &mut [u16], lo: usize, hi: usize) {
     }
 }
 
+/// Runs of at most `max_gap` pixels without data (0) in a finished working row, between
+/// two pixels with data whose disparities agree within 1 px, take the linear blend of the
+/// two values (rounded half up: `(a (n - k) + b k + n / 2) / n` at `k` pixels past `a`,
+/// `n` pixels apart): disparities (Q4) in [`Output::DisparityQ4`]; depths (millimetres) in
+/// [`Output::DepthMm`], where two depths `a`, `b` agree when their disparities
+/// `depth_k / a` and `depth_k / b` (working-size Q4) do, `depth_k |a - b| <= 16 a b`.
+/// Gaps at the row's ends, and across a depth edge (an occlusion), stay without data.
+/// Returns the pixels filled.
+#[inline(never)]
+pub(crate) fn fill_gaps(row: &mut [u16], max_gap: usize, mode: Output, depth_k: u32) -> u64 {
+    if max_gap == 0 {
+        return 0;
+    }
+    let agree = |a: u32, b: u32| match mode {
+        Output::DisparityQ4 => a.abs_diff(b) <= u32::from(ONE_Q),
+        Output::DepthMm => {
+            u64::from(depth_k) * u64::from(a.abs_diff(b))
+                <= u64::from(ONE_Q) * u64::from(a) * u64::from(b)
+        }
+    };
+    let mut filled = 0u64;
+    // The last pixel with data: its index and value.
+    let mut last: Option<(usize, u32)> = None;
+    for x in 0..row.len() {
+        let b = u32::from(row.get(x).copied().unwrap_or(0));
+        if b == 0 {
+            continue;
+        }
+        if let Some((p, a)) = last {
+            let n = x - p;
+            if n > 1 && n - 1 <= max_gap && agree(a, b) {
+                let n32 = n as u32;
+                for k in 1..n {
+                    let k32 = k as u32;
+                    // At most 33 * 2^16: no overflow; never 0 (both ends are not).
+                    let v = (a * (n32 - k32) + b * k32 + n32 / 2) / n32;
+                    if let Some(o) = row.get_mut(p + k) {
+                        *o = v as u16;
+                    }
+                }
+                filled += (n - 1) as u64;
+            }
+        }
+        last = Some((x, b));
+    }
+    filled
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn short_gaps_between_agreeing_pixels_take_the_blend() {
+        let q = |px: u16| px * ONE_Q;
+        // A gap of 2 between 5 and 5.75 px; a gap of 3 (too long for 2); a gap of 1 across
+        // a 2 px edge; the ends stay without data.
+        let mut d = [0, q(5), 0, 0, q(5) + 12, 0, 0, 0, q(6), 0, q(8), 0];
+        assert_eq!(fill_gaps(&mut d, 2, Output::DisparityQ4, 0), 2);
+        assert_eq!(
+            d,
+            [0, q(5), q(5) + 4, q(5) + 8, q(5) + 12, 0, 0, 0, q(6), 0, q(8), 0]
+        );
+        let mut e = d;
+        assert_eq!(fill_gaps(&mut e, 3, Output::DisparityQ4, 0), 3);
+        assert_eq!(&e[4..9], &[q(5) + 12, q(5) + 13, q(5) + 14, q(5) + 15, q(6)]);
+        assert_eq!(fill_gaps(&mut d, 0, Output::DisparityQ4, 0), 0);
+    }
+
+    #[test]
+    fn depths_agree_when_their_disparities_do() {
+        // depth_k = 16 * 48,000: 4,000 mm is 12 px, 4,300 mm 11.16 px (agree), 6,000 mm 8 px.
+        let k = 16 * 48_000;
+        let mut d = [4000, 0, 0, 4300, 0, 6000];
+        assert_eq!(fill_gaps(&mut d, 4, Output::DepthMm, k), 2);
+        assert_eq!(d, [4000, 4100, 4200, 4300, 0, 6000]);
+    }
 
     #[test]
     fn columns_between_decided_ones_take_the_mean_of_agreeing_neighbours() {

@@ -4,7 +4,10 @@
 //! `yn = (v + 0.5 - cy) / f` lies at depth `Z = h / s` with `s = sin t + yn cos t` (`h`:
 //! camera height, metres; `t`: tilt): its disparity `f B s / h` grows linearly down the
 //! image and is the same along the row. Relief between `+above` and `-below` metres around
-//! the ground under the rover moves it to `f B s / (h - dz)`; pitch and roll up to `m`
+//! the ground under the rover moves it to `f B s / (h - dz)` (with a near bound `a0` and a
+//! grade `g`, `relief_above_near_m` and `relief_above_grade`, a point at depth `Z` stands at
+//! most `min(above, a0 + g Z)` high: the row's largest disparity is also at most
+//! `f B (s + g) / (h - a0)`); pitch and roll up to `m`
 //! degrees turn `s` by at most `m` in tilt and `tan(hfov / 2) sin m` across the row. So a
 //! row searches `[f B max(s_lo / (h + below), 1 / Zmax), f B s_hi / (h - above)]`, widened by
 //! one pixel on each side so that every true disparity in range is an interior winner
@@ -33,6 +36,9 @@ pub struct RowRanges {
     fb: f32,
     h: f32,
     above: f32,
+    /// The near bound of the relief above (`relief_above_near_m`, below `above`) and its
+    /// grade, metres per metre of depth; `None`: `above` everywhere.
+    near: Option<(f32, f32)>,
     below: f32,
     inv_zmax: f32,
     sin_t: [f32; 2],
@@ -77,6 +83,8 @@ impl RowRanges {
             fb: focal * p.baseline_m,
             h: camera.height_m,
             above: p.relief_above_m,
+            near: (p.relief_above_near_m < p.relief_above_m)
+                .then_some((p.relief_above_near_m, p.relief_above_grade)),
             below: p.relief_below_m,
             inv_zmax: 1.0 / zmax,
             sin_t: [libm::sinf(t0), libm::sinf(t1)],
@@ -146,7 +154,12 @@ impl RowRanges {
             return None;
         }
         let d_lo = self.fb * (s_lo / (self.h + self.below)).max(self.inv_zmax);
-        let d_hi = self.fb * s_hi / (self.h - self.above);
+        let mut d_hi = self.fb * s_hi / (self.h - self.above);
+        if let Some((a0, g)) = self.near {
+            // A point at depth Z stands at most `a0 + g Z` above the ground: on this row's
+            // ray (`dz = h - Z s`) at depth `Z >= (h - a0) / (s + g)`.
+            d_hi = d_hi.min(self.fb * (s_hi + g) / (self.h - a0));
+        }
         // Every point this row sees within `Zmax` would stand more than `above` over the
         // ground: the row only sees sky or ground beyond the range.
         if d_hi < d_lo {
@@ -293,5 +306,50 @@ mod tests {
             }
         }
         assert!(rows > 100, "{rows}");
+    }
+
+    #[test]
+    fn relief_above_grows_with_depth_from_its_near_bound() {
+        let cam = CameraParams::default();
+        let full = StereoParams::default();
+        let p = StereoParams {
+            relief_above_near_m: 0.5,
+            relief_above_grade: 0.05,
+            ..full
+        };
+        let (a, b) = (RowRanges::new(&cam, &full, 0), RowRanges::new(&cam, &p, 0));
+        let t = 15f32.to_radians();
+        let f = a.focal_px();
+        let mut narrower = 0;
+        for v in 0..180 {
+            let (Some((lo_a, hi_a)), Some((lo_b, hi_b))) = (a.row(v), b.row(v)) else {
+                assert!(b.row(v).is_none(), "{v}");
+                continue;
+            };
+            assert!(lo_a == lo_b && hi_b <= hi_a, "{v}");
+            narrower += usize::from(hi_b < hi_a);
+            // A point on the row's centre ray (level rover) standing the bound's height
+            // above the ground at its depth lies inside the range.
+            let yn = (v as f32 + 0.5 - 90.0) / f;
+            let s = libm::sinf(t) + yn * libm::cosf(t);
+            if s <= 0.0 {
+                continue;
+            }
+            // Depth with dz = h - Z s = min(1, 0.5 + 0.05 Z).
+            let z = (1.5 / (s + 0.05)).max(1.0 / s);
+            let d = f * 0.3 / z;
+            if z < 35.0 {
+                assert!(d <= hi_b as f32 - 1.0 + 1e-3, "{v}: {d} {hi_b}");
+            }
+        }
+        // The near rows (flat ground within 10 m: the bound below 1 m) search fewer.
+        assert!(narrower > 60, "{narrower}");
+        // Off: a near bound at or above the full one changes nothing.
+        let off = StereoParams {
+            relief_above_near_m: 1.0,
+            relief_above_grade: 0.3,
+            ..full
+        };
+        assert_eq!(RowRanges::new(&cam, &off, 0), a);
     }
 }

@@ -131,12 +131,23 @@ pub struct StereoParams {
     pub subpixel: SubPixel,
     /// Speckle rejection: neighbours (of 8) that must agree within 1 px (0: off; 0..=8).
     pub min_support: u8,
+    /// Gaps of at most this many working pixels in an output row, between two pixels whose
+    /// disparities agree within 1 px, take their linear blend (0..=64; 0: off): the holes
+    /// of textureless ground, not those across a depth edge.
+    pub gap_fill_px: u8,
     /// Largest ground distance from the rover that matters, metres (the top-down square's
     /// corner: 25 * sqrt(2) for 50 m x 50 m). Sets the smallest disparity searched.
     pub max_ground_range_m: f32,
     /// Highest relief above the ground under the rover, metres, in [0, camera height):
     /// sets the largest disparity of each row.
     pub relief_above_m: f32,
+    /// Relief above the ground near the rover, metres (finite, >= 0; at or above
+    /// `relief_above_m`: off, the default): a point at depth `Z` metres is searched up to
+    /// `min(relief_above_m, relief_above_near_m + relief_above_grade Z)` above the ground
+    /// under the rover (terrain rising with distance, not rocks taller near the rover).
+    pub relief_above_near_m: f32,
+    /// Grade of the relief above with depth, metres per metre (finite, in [0, 10]).
+    pub relief_above_grade: f32,
     /// Deepest relief below the ground under the rover, metres, >= 0: sets the smallest
     /// disparity of each row.
     pub relief_below_m: f32,
@@ -179,8 +190,11 @@ impl Default for StereoParams {
             lr_check: true,
             subpixel: SubPixel::Parabola,
             min_support: 3,
+            gap_fill_px: 0,
             max_ground_range_m: 35.355_34,
             relief_above_m: 1.0,
+            relief_above_near_m: f32::INFINITY,
+            relief_above_grade: 0.0,
             relief_below_m: 2.0,
             attitude_margin_deg: 2.0,
             scale_levels: 2,
@@ -440,7 +454,7 @@ impl StereoRig {
         if !(p.baseline_m.is_finite() && p.baseline_m > 0.0 && p.baseline_m <= 10.0) {
             return Err(StereoError::Baseline);
         }
-        let checks: [(bool, &'static str); 18] = [
+        let checks: [(bool, &'static str); 20] = [
             ((1..=4).contains(&p.downsample), "downsample must be 1..=4"),
             (
                 (1..=MAX_RADIUS).contains(&p.radius_px),
@@ -478,6 +492,14 @@ impl StereoRig {
             (p.uniqueness_pct <= 50, "uniqueness_pct must be 0..=50"),
             (p.min_gap_per_px <= 16, "min_gap_per_px must be 0..=16"),
             (p.min_support <= 8, "min_support must be 0..=8"),
+            (p.gap_fill_px <= 64, "gap_fill_px must be 0..=64"),
+            (
+                !p.relief_above_near_m.is_nan()
+                    && p.relief_above_near_m >= 0.0
+                    && p.relief_above_grade.is_finite()
+                    && (0.0..=10.0).contains(&p.relief_above_grade),
+                "relief_above_near_m must be >= 0 and relief_above_grade in [0, 10]",
+            ),
             (
                 p.max_ground_range_m.is_finite() && p.max_ground_range_m > 0.0,
                 "max_ground_range_m must be finite and > 0",

@@ -4,6 +4,7 @@
 
 use super::band::{BandReport, Output};
 use super::expand::{expand_row, Passed, RowPlace};
+use super::fill::fill_gaps;
 use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
 use crate::image::ImageView;
 use crate::reproject::{classify_frame, FrameStatus};
@@ -511,6 +512,10 @@ pub(super) fn run(
         )?;
         y = yb;
     }
+    // Short gaps of every working row ([`super::fill::fill_gaps`]).
+    for row in out.chunks_exact_mut(w.max(1)) {
+        fill_gaps(row, usize::from(rig.params.gap_fill_px), mode, rig.depth_k);
+    }
     // Working-size pixels with data (a disparity or depth is never 0).
     rep.valid = out.iter().filter(|&&v| v != 0).count() as u64;
     Ok(rep)
@@ -794,6 +799,7 @@ mod tests {
                     lr_check: rng.below(4) != 0,
                     subpixel: [SubPixel::Parabola, SubPixel::Equiangular][rng.below(2) as usize],
                     min_support: rng.below(5) as u8,
+                    gap_fill_px: [0, 0, 1, 4, 16][rng.below(5) as usize],
                     relief_below_m: 0.5 + 0.5 * rng.below(4) as f32,
                     scale_levels: rng.below(3) as u8,
                     scale_error_m: [0.0, 0.1, 0.3, 1.0][rng.below(4) as usize],
@@ -883,6 +889,8 @@ mod tests {
                 // Near rows of the working size in pairs in three cases.
                 pair_rows_m: [0.25, 0.0, 0.5, 1.0][case],
                 pair_radius_rows_px: [2, 1, 1, 2][case],
+                // Short gaps of the output rows filled in two cases.
+                gap_fill_px: [0, 8, 0, 3][case],
                 ..StereoParams::default()
             };
             let rig = StereoRig::new(&cam, &p).unwrap();

@@ -57,10 +57,21 @@ pub struct Args {
     /// stereo: neighbours (of 8) within 1 px a disparity needs (0..=8).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().min_support)]
     min_support: u8,
+    /// stereo: gaps of at most N working pixels in a row, between two disparities that
+    /// agree within 1 px, take their blend (0: off).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().gap_fill_px)]
+    gap_fill: u8,
     /// stereo: relief searched above the ground under the rover, metres (the disparity
     /// range of each row follows from it; docs/stereo.md).
     #[arg(long, allow_negative_numbers = true, default_value_t = orbfix::stereo::StereoParams::default().relief_above_m)]
     relief_above: f32,
+    /// stereo: relief searched above the ground near the rover, metres, growing by
+    /// --relief-above-grade metres per metre of depth up to --relief-above (default: off).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().relief_above_near_m)]
+    relief_above_near: f32,
+    /// stereo: grade of the relief above with depth, metres per metre.
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().relief_above_grade)]
+    relief_above_grade: f32,
     /// stereo: relief searched below the ground under the rover, metres.
     #[arg(long, allow_negative_numbers = true, default_value_t = orbfix::stereo::StereoParams::default().relief_below_m)]
     relief_below: f32,
@@ -163,7 +174,10 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         uniqueness_pct: args.uniqueness,
         min_gap_per_px: args.min_gap,
         min_support: args.min_support,
+        gap_fill_px: args.gap_fill,
         relief_above_m: args.relief_above,
+        relief_above_near_m: args.relief_above_near,
+        relief_above_grade: args.relief_above_grade,
         relief_below_m: args.relief_below,
         scale_levels: args.scale_levels,
         scale_error_m: args.scale_error,

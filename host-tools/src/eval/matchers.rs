@@ -33,11 +33,12 @@ pub fn best_matcher() -> &'static str {
 pub const FIX_OPTIONS: &str = "-pN (coarse peaks refined), -mnN (smallest NCC kept, 0..1), \
 -mnsN (smallest NCC kept with the fix's own stereo depth), -nmN (NCC margin another refined \
 peak needs over the CNN's best with the fix's own stereo depth), \
--raN / -rbN (stereo: relief searched above / below the ground, metres), -srN (stereo: \
+-raN / -rbN (stereo: relief searched above / below the ground, metres), -anN / -agN \
+(stereo: relief above near the rover, metres, growing by N metres per metre of depth up to -ra), -srN (stereo: \
 ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -rrN (stereo: \
 window radius down, rows), -seN (stereo: coarser scale where a quarter pixel moves the ground \
 at most N metres), -spN (stereo sub-pixel fit: 0 parabola, 1 equiangular), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
-cost gap per window pixel), -msN (stereo: support, neighbours of 8), -mdN (largest depth \
+cost gap per window pixel), -msN (stereo: support, neighbours of 8), -gfN (stereo: gaps of at most N working pixels between agreeing disparities filled; 0: none), -mdN (largest depth \
 reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks), -csN (stereo: \
 every N-th column decided, 1..2), -ncN (stereo: every N-th column decided in the near rows, \
 1..4; -cs1-nc1 decides every column everywhere), -nsN (stereo: ground span of those N columns up to which a row is near, metres; 0: none), -pmN (stereo: working rows \
@@ -104,7 +105,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         let (key, value) = part.split_at(at);
         if ![
             "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
-            "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr", "mx",
+            "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr", "mx", "gf", "an", "ag",
         ]
         .contains(&key)
         {
@@ -127,6 +128,8 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "mns" => cfg.refine.min_ncc_stereo = v,
             "nm" => cfg.refine.ncc_margin_stereo = v,
             "ra" => m.relief_above_m = v,
+            "an" => m.relief_above_near_m = v,
+            "ag" => m.relief_above_grade = v,
             "rb" => m.relief_below_m = v,
             "sr" => m.max_ground_range_m = v,
             "se" => m.scale_error_m = v,
@@ -164,6 +167,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "u" => m.uniqueness_pct = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "mg" => m.min_gap_per_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "ms" => m.min_support = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
+            "gf" => m.gap_fill_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "md" => cfg.range.max_depth_m = v,
             "rw" => cfg.relief.weight = v,
             "rm" => cfg.relief.min_blocks = u16::try_from(whole(v)?).unwrap_or(u16::MAX),
