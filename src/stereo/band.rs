@@ -812,7 +812,12 @@ fn finish_row_in<const A: bool, const B: bool>(
     if above.len() < w || below.len() < w || out.len() < w * s || w == 0 {
         return 0;
     }
-    let (pa, pc, pb, po) = (above.as_ptr(), cur.as_ptr(), below.as_ptr(), out.as_mut_ptr());
+    let (pa, pc, pb, po) = (
+        above.as_ptr(),
+        cur.as_ptr(),
+        below.as_ptr(),
+        out.as_mut_ptr(),
+    );
     for x in 0..w {
         // Safety: `x < w` and every row has at least `w` elements (checked above).
         let d = unsafe { *pc.add(x) };

@@ -119,11 +119,27 @@ mod tests {
         assert_eq!(fill_gaps(&mut d, 2, Output::DisparityQ4, 0), 2);
         assert_eq!(
             d,
-            [0, q(5), q(5) + 4, q(5) + 8, q(5) + 12, 0, 0, 0, q(6), 0, q(8), 0]
+            [
+                0,
+                q(5),
+                q(5) + 4,
+                q(5) + 8,
+                q(5) + 12,
+                0,
+                0,
+                0,
+                q(6),
+                0,
+                q(8),
+                0
+            ]
         );
         let mut e = d;
         assert_eq!(fill_gaps(&mut e, 3, Output::DisparityQ4, 0), 3);
-        assert_eq!(&e[4..9], &[q(5) + 12, q(5) + 13, q(5) + 14, q(5) + 15, q(6)]);
+        assert_eq!(
+            &e[4..9],
+            &[q(5) + 12, q(5) + 13, q(5) + 14, q(5) + 15, q(6)]
+        );
         assert_eq!(fill_gaps(&mut d, 0, Output::DisparityQ4, 0), 0);
     }
 

@@ -311,7 +311,10 @@ mod tests {
     #[test]
     fn relief_above_grows_with_depth_from_its_near_bound() {
         let cam = CameraParams::default();
-        let full = StereoParams::default();
+        let full = StereoParams {
+            relief_above_near_m: f32::INFINITY,
+            ..StereoParams::default()
+        };
         let p = StereoParams {
             relief_above_near_m: 0.5,
             relief_above_grade: 0.05,
