@@ -14,6 +14,7 @@ use super::kernel::{
     add_groups, column, decide, right_groups, slide, slide_min, threshold, update_columns,
     ColumnParams, LaneMin, UpdateCols, EDGE, UNIQUE,
 };
+use super::speckle::finish_row;
 use super::swar::{absdiff_u8x4, min2_u16x2, split_u8x4, word};
 use super::{
     Side, StereoBuffer, StereoError, StereoRig, SubPixel, DISPARITY_FRAC_BITS, MAX_RADIUS,
@@ -771,177 +772,6 @@ fn match_row(
     }
 }
 
-/// Speckle filter and output of a row from the disparity rows above, at and below (level
-/// pixels) into `out` (working size: each level pixel covers `2^level` pixels, disparities
-/// scaled to working-size pixels; `out` holds zeros where there is no data). Returns the
-/// level pixels with data.
-// A function of its own (called once per row): its loop keeps its state in registers.
-#[inline(never)]
-fn finish_row(
-    above: Option<&[u16]>,
-    cur: &[u16],
-    below: Option<&[u16]>,
-    fin: &Finish,
-    out: &mut [u16],
-    rep: &mut BandReport,
-) -> u64 {
-    // Neighbours outside the row or the image count as "no data" (0), which is never near:
-    // a missing row above or below reads as `cur` with its neighbours not counted.
-    match (above, below) {
-        (Some(a), Some(b)) => finish_row_in::<true, true>(a, cur, b, fin, out, rep),
-        (Some(a), None) => finish_row_in::<true, false>(a, cur, cur, fin, out, rep),
-        (None, Some(b)) => finish_row_in::<false, true>(cur, cur, b, fin, out, rep),
-        (None, None) => finish_row_in::<false, false>(cur, cur, cur, fin, out, rep),
-    }
-}
-
-/// [`finish_row`] with the rows above (`A`) and below (`B`) present or not.
-#[inline(always)]
-fn finish_row_in<const A: bool, const B: bool>(
-    above: &[u16],
-    cur: &[u16],
-    below: &[u16],
-    fin: &Finish,
-    out: &mut [u16],
-    rep: &mut BandReport,
-) -> u64 {
-    let w = cur.len();
-    let s = 1usize << fin.shift;
-    let support = u32::from(fin.support);
-    let (mut valid, mut speck) = (0u32, 0u32);
-    if above.len() < w || below.len() < w || out.len() < w * s || w == 0 {
-        return 0;
-    }
-    let (pa, pc, pb, po) = (
-        above.as_ptr(),
-        cur.as_ptr(),
-        below.as_ptr(),
-        out.as_mut_ptr(),
-    );
-    for x in 0..w {
-        // Safety: `x < w` and every row has at least `w` elements (checked above).
-        let d = unsafe { *pc.add(x) };
-        if d == 0 {
-            continue;
-        }
-        if support > 0 {
-            // Safety: `x - 1` is read only when `x > 0`, `x + 1` only when `x + 1 < w`.
-            let ok = unsafe {
-                if x > 0 && x + 1 < w {
-                    supported::<A, B, true, true>(pa, pc, pb, x, d, support)
-                } else if x > 0 {
-                    supported::<A, B, true, false>(pa, pc, pb, x, d, support)
-                } else if x + 1 < w {
-                    supported::<A, B, false, true>(pa, pc, pb, x, d, support)
-                } else {
-                    supported::<A, B, false, false>(pa, pc, pb, x, d, support)
-                }
-            };
-            if !ok {
-                speck += 1;
-                continue;
-            }
-        }
-        // Working-size disparity, Q4 (at most 2^18: no overflow).
-        let dw = u32::from(d) << fin.shift;
-        let v = match fin.mode {
-            Output::DisparityQ4 => dw.min(u32::from(u16::MAX)) as u16,
-            Output::DepthMm => {
-                // depth_k < 4e9 and dw / 2 < 2^17: no overflow.
-                let z = (fin.depth_k + dw / 2).checked_div(dw).unwrap_or(0);
-                if z == 0 || z > u32::from(u16::MAX) {
-                    continue;
-                }
-                z as u16
-            }
-        };
-        // Safety: `x * s + s <= w * s <= out.len()` (checked above).
-        unsafe {
-            let o = po.add(x * s);
-            match s {
-                1 => *o = v,
-                2 => {
-                    *o = v;
-                    *o.add(1) = v;
-                }
-                _ => {
-                    for i in 0..s {
-                        *o.add(i) = v;
-                    }
-                }
-            }
-        }
-        valid += 1;
-    }
-    rep.rejected_speckle += u64::from(speck);
-    u64::from(valid)
-}
-
-/// Whether at least `support` (1..=8) of the 8 neighbours of `cur[x]` (disparity `d`, not 0)
-/// have a disparity within 1 px of it (Q4: `|v - d| <= 16`, `v` not 0); the row above
-/// counts where `A`, the row below where `B`, the left column where `L`, the right where
-/// `R`. Counted until `support` is reached (the same verdict as counting all 8).
-///
-/// # Safety
-/// `pa`, `pc` and `pb` point to rows of at least `x + 1` elements (`A` / `B` false: never
-/// read), and of `x + 2` when `R`; `x >= 1` when `L`.
-#[inline(always)]
-unsafe fn supported<const A: bool, const B: bool, const L: bool, const R: bool>(
-    pa: *const u16,
-    pc: *const u16,
-    pb: *const u16,
-    x: usize,
-    d: u16,
-    support: u32,
-) -> bool {
-    // `v` near `d`: `v` in `[lo, lo + span]` with `lo = max(d - 16, 1)` (so 0 never is),
-    // one unsigned compare.
-    let d = u32::from(d);
-    let lo = d.saturating_sub(u32::from(ONE_Q)).max(1);
-    let span = d + u32::from(ONE_Q) - lo;
-    let near = |p: *const u16, i: usize| -> u32 {
-        // Safety: the caller's bounds (`i` is `x - 1`, `x` or `x + 1` as `L` / `R` allow).
-        u32::from(u32::from(unsafe { *p.add(i) }).wrapping_sub(lo) <= span)
-    };
-    // Safety (every read below): `x - 1` only when `L`, `x + 1` only when `R`, rows above
-    // and below only when `A` / `B`.
-    let mut n = 0;
-    if L {
-        n += near(pc, x - 1);
-    }
-    if R {
-        n += near(pc, x + 1);
-    }
-    if A {
-        n += near(pa, x);
-    }
-    if n >= support {
-        return true;
-    }
-    if B {
-        n += near(pb, x);
-        if n >= support {
-            return true;
-        }
-    }
-    if A && L {
-        n += near(pa, x - 1);
-    }
-    if A && R {
-        n += near(pa, x + 1);
-    }
-    if n >= support {
-        return true;
-    }
-    if B && L {
-        n += near(pb, x - 1);
-    }
-    if B && R {
-        n += near(pb, x + 1);
-    }
-    n >= support
-}
-
 /// Checks the inputs of a band; returns the two frames.
 pub(crate) fn check_inputs<'f, 'a>(
     rig: &StereoRig,
@@ -1021,15 +851,18 @@ pub struct StereoView<'a> {
 
 /// How rows are finished: level width `w`, speckle support, output kind, depth constant
 /// (working size) and the level (disparities are scaled by `2^level`, pixels expanded).
-struct Finish<'s> {
+pub(super) struct Finish<'s> {
     w: usize,
-    support: u8,
-    mode: Output,
-    depth_k: u32,
+    /// Neighbours (of 8) a disparity needs within 1 px (`StereoParams::min_support`).
+    pub(super) support: u8,
+    /// What the output holds.
+    pub(super) mode: Output,
+    /// Depth constant at the working size (`depth = depth_k / disparity`, Q4).
+    pub(super) depth_k: u32,
     /// The slot ([`super::scale::SLOTS`]) of the rows.
     level: usize,
     /// Its working columns per column, as a shift.
-    shift: usize,
+    pub(super) shift: usize,
     /// Longest gap of a working row filled ([`super::fill::fill_gaps`]), pixels (0: off).
     gap: usize,
     /// The rig's levels (rows per level row, the flat-ground row scales).
@@ -1425,17 +1258,43 @@ fn finish(
     if m <= 1 {
         // Working-size pixels with data: each level pixel covers 2^l across.
         rep.valid += valid << fin.shift;
-        rep.valid += fill_gaps(o, fin.gap, fin.mode, fin.depth_k);
-        return;
+    } else {
+        expand_rows(cur, above, below, q, m, first, ya, yb, bw, fin, out, rep);
     }
-    // The working rows of `q` from its disparities and its neighbours'
-    // ([`super::expand`]): the later rows first (the first row tells which pixels passed),
-    // then the first in place.
+    // Short gaps of the finished working rows (`StereoParams::gap_fill_px`).
+    for row in out
+        .get_mut(first..first + (yb - ya) * bw)
+        .unwrap_or(&mut [])
+        .chunks_exact_mut(bw.max(1))
+    {
+        rep.valid += fill_gaps(row, fin.gap, fin.mode, fin.depth_k);
+    }
+}
+
+/// Working rows `ya..yb` (the first at `first` in `out`, `bw` apart) of level row `q` (`m`
+/// working rows per level row) from its disparities `cur` and its neighbours'
+/// ([`super::expand`]): the later rows first (the first row, finished, tells which pixels
+/// passed), then the first in place.
+#[allow(clippy::too_many_arguments)]
+fn expand_rows(
+    cur: &[u16],
+    above: Option<&[u16]>,
+    below: Option<&[u16]>,
+    q: usize,
+    m: usize,
+    first: usize,
+    ya: usize,
+    yb: usize,
+    bw: usize,
+    fin: &Finish,
+    out: &mut [u16],
+    rep: &mut BandReport,
+) {
     let place = |y: usize| RowPlace {
         level: fin.shift,
         rows: m,
         offset: y - q * m,
-        flat_q15: fin.scales.row_scale_q15(l, q, y, false),
+        flat_q15: fin.scales.row_scale_q15(fin.level, q, y, false),
     };
     let side = |y: usize| {
         if 2 * (y - q * m) + 1 < m {
@@ -1466,13 +1325,6 @@ fn finish(
         fin.depth_k,
     );
     rep.valid += written;
-    for row in out
-        .get_mut(first..first + (yb - ya) * bw)
-        .unwrap_or(&mut [])
-        .chunks_exact_mut(bw.max(1))
-    {
-        rep.valid += fill_gaps(row, fin.gap, fin.mode, fin.depth_k);
-    }
 }
 
 /// Rows `y0..y1` of the working-size output into `out` (`(y1 - y0) * width`, row-major),

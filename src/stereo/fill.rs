@@ -20,6 +20,13 @@ pub(crate) fn fill_between(disp: &mut [u16], lo: usize, hi: usize, step: usize) 
     }
 }
 
+/// The linear blend of `a` and `b` at `k` of `n` steps past `a`, rounded half up: `(a (n -
+/// k) + b k + n / 2) / n` (`k <= n`; no overflow for `n <= 65` and 16-bit `a`, `b`).
+#[inline(always)]
+fn blend(a: u32, b: u32, k: u32, n: u32) -> u16 {
+    ((a * (n - k) + b * k + n / 2) / n) as u16
+}
+
 /// [`fill_between`] with the step a constant (the division by 2 and 4 a shift).
 #[inline(never)]
 fn fill_by<const N: usize>(disp: &mut [u16], lo: usize, hi: usize) {
@@ -39,13 +46,7 @@ fn fill_by<const N: usize>(disp: &mut [u16], lo: usize, hi: usize) {
             let b = u32::from(*p.add(x1));
             let near = a != 0 && b != 0 && a.abs_diff(b) <= u32::from(ONE_Q);
             for k in 1..N {
-                let k32 = k as u32;
-                // At most 4 * 2^16: no overflow.
-                let v = if near {
-                    ((a * (n - k32) + b * k32 + n / 2) / n) as u16
-                } else {
-                    0
-                };
+                let v = if near { blend(a, b, k as u32, n) } else { 0 };
                 *p.add(x0 + k) = v;
             }
             x0 = x1;
@@ -89,13 +90,10 @@ pub(crate) fn fill_gaps(row: &mut [u16], max_gap: usize, mode: Output, depth_k: 
         if let Some((p, a)) = last {
             let n = x - p;
             if n > 1 && n - 1 <= max_gap && agree(a, b) {
-                let n32 = n as u32;
                 for k in 1..n {
-                    let k32 = k as u32;
-                    // At most 33 * 2^16: no overflow; never 0 (both ends are not).
-                    let v = (a * (n32 - k32) + b * k32 + n32 / 2) / n32;
+                    // `n <= 65` (`max_gap <= 64`); never 0 (both ends are not).
                     if let Some(o) = row.get_mut(p + k) {
-                        *o = v as u16;
+                        *o = blend(a, b, k as u32, n as u32);
                     }
                 }
                 filled += (n - 1) as u64;

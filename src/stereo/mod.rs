@@ -57,6 +57,7 @@ mod prefilter;
 #[cfg(test)]
 mod reference;
 pub mod scale;
+mod speckle;
 mod swar;
 
 pub use band::{BandReport, StereoView};
