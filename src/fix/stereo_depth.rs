@@ -24,7 +24,7 @@ use crate::image::ImageView;
 use crate::reproject::{
     classify_frame, range_scratch_len, DepthBand, FrameStatus, RangeAccumulator, ReliefGrid,
 };
-use crate::stereo::{stereo_buffer_bound, StereoError, StereoParams, StereoRig};
+use crate::stereo::{stereo_buffer_bound, StereoBuffer, StereoError, StereoParams, StereoRig};
 
 /// Settings of the fix's own stereo stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -120,6 +120,36 @@ fn per_view(e: &StereoError) -> bool {
     )
 }
 
+/// Whether a view's rig fits the fix's stereo scratch: its widest row in `max_disparities`
+/// (whole groups of four), its byte and `u16` scratch in `bytes` and `words` elements.
+fn fits(
+    rig: &StereoRig,
+    max_disparities: usize,
+    bytes: usize,
+    words: usize,
+) -> Result<(), StereoError> {
+    let need = rig.buffer_sizes();
+    let checks = [
+        (
+            StereoBuffer::Words,
+            need.max_disparities,
+            4 * max_disparities.div_ceil(4),
+        ),
+        (StereoBuffer::Bytes, need.bytes, bytes),
+        (StereoBuffer::Words, need.words, words),
+    ];
+    for (buffer, needed, got) in checks {
+        if needed > got {
+            return Err(StereoError::BufferSize {
+                buffer,
+                needed,
+                got,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Stage 1 with on-board stereo: depth band by band (stage `stereo`), each band placed at
 /// once (stage `reproject`), then the top-down image (`work`: the accumulator's [`range_scratch_len`]
 /// words, then [`stereo_work_words`]).
@@ -192,7 +222,6 @@ pub(super) fn reproject_stereo<C: StageClock>(
     clock.end(Stage::Reproject);
     let mut acc = acc?;
     let k = usize::from(sc.matcher.downsample);
-    let first = rig.ranges().first_active();
     let mut errors: [Option<StereoError>; 4] = [None; 4];
     for (((left, right), view), err) in inputs
         .frames
@@ -212,20 +241,27 @@ pub(super) fn reproject_stereo<C: StageClock>(
         }
         acc.set_view_status(view, FrameStatus::Ok, false);
         // One stream per view: the pair is checked once, and each band continues where
-        // the last one stopped.
+        // the last one stopped. The view's row ranges follow the rover's pitch and roll.
         clock.begin(Stage::Stereo);
-        let stream = rig.view(left, right.as_ref(), bytes, words);
+        // A pose the rig cannot take, or ranges wider than the scratch holds (a steep
+        // attitude), cost this view its depth, not the fix.
+        let vrig = StereoRig::for_view(&inputs.params, &sc.matcher, &inputs.pose, view)
+            .and_then(|v| fits(&v, sc.max_disparities, bytes.len(), words.len()).map(|()| v));
+        let stream = vrig
+            .as_ref()
+            .map_err(|e| *e)
+            .and_then(|v| v.view(left, right.as_ref(), bytes, words));
         clock.end(Stage::Stereo);
         let mut stream = match stream {
             Ok(s) => s,
-            Err(e) if per_view(&e) => {
+            Err(e) if per_view(&e) || vrig.is_err() => {
                 *err = Some(e);
                 acc.set_view_status(view, FrameStatus::Ok, true);
                 continue;
             }
             Err(e) => return Err(FixError::Stereo(e)),
         };
-        let mut y0 = first;
+        let mut y0 = vrig.as_ref().map_or(h, |v| v.ranges().first_active());
         while y0 < h {
             let y1 = (y0 + sc.band_rows).min(h);
             let out = band.get_mut(..(y1 - y0) * w).ok_or(too_small)?;

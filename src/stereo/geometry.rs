@@ -7,8 +7,13 @@
 //! the ground under the rover moves it to `f B s / (h - dz)` (with a near bound `a0` and a
 //! grade `g`, `relief_above_near_m` and `relief_above_grade`, a point at depth `Z` stands at
 //! most `min(above, a0 + g Z)` high: the row's largest disparity is also at most
-//! `f B (s + g) / (h - a0)`); pitch and roll up to `m`
-//! degrees turn `s` by at most `m` in tilt and `tan(hfov / 2) sin m` across the row. So a
+//! `f B (s + g) / (h - a0)`). A rover that is not level
+//! sees the ground under normalized pixel `(xn, yn)` at depth `h / s` with
+//! `s = a xn + b yn + c`, `(a, b, c)` the world's down in the view camera's coordinates
+//! ([`Attitude`], from the pitch and roll the fix is given); an uncertainty of `m` degrees
+//! in each turns that unit vector by at most `acos(cos^2 m)`, which moves `s` by at most
+//! `2 sin(acos(cos^2 m) / 2) |(xn, yn, 1)|`; `s_lo`, `s_hi` are `s`'s extremes over the row
+//! (`|xn| <= tan(hfov / 2)`) and that uncertainty. So a
 //! row searches `[f B max(s_lo / (h + below), 1 / Zmax), f B s_hi / (h - above)]`, widened by
 //! one pixel on each side so that every true disparity in range is an interior winner
 //! (`Zmax`: the largest depth of a point within `max_ground_range_m`). Rows with
@@ -22,7 +27,7 @@
 //! length, columns and disparities are `2^L` times smaller, its rows `row_factor 2^L`.
 
 use super::StereoParams;
-use crate::camera::CameraParams;
+use crate::camera::{Camera, CameraError, CameraParams, RoverPose, View};
 
 /// The per-row disparity search ranges of one rig (integer pixels at the working size).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,25 +46,89 @@ pub struct RowRanges {
     near: Option<(f32, f32)>,
     below: f32,
     inv_zmax: f32,
-    sin_t: [f32; 2],
-    cos_t: [f32; 2],
-    roll_term: f32,
+    /// The nominal ground slope terms of this view's camera: the flat ground under pixel
+    /// `(xn, yn)` (normalized coordinates) lies at depth `h / s` with `s = a xn + b yn + c`,
+    /// `(a, b, c)` minus the world's up in camera coordinates ([`Attitude::ground_terms`]).
+    nom: [f32; 3],
+    /// `tan(hfov / 2)`: the largest `|xn|` of a row.
+    half: f32,
+    /// `sqrt(half^2 + 1)`: `|(xn, yn, 1)| <= root + yn^2 / (2 root)` on a row.
+    root: f32,
+    /// How far the attitude's uncertainty can move `(a, b, c)` (a unit vector turned by at
+    /// most the angle between two up vectors `m` of pitch and `m` of roll apart).
+    marg: f32,
     radius: usize,
 }
 
+/// The rover's pitch and roll seen from one view's camera, and the uncertainty the row
+/// ranges allow around them: the world's up in the camera's coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Attitude {
+    /// `-up` in camera coordinates (`x` right, `y` down, `z` the optical axis): the flat
+    /// ground under normalized pixel `(xn, yn)` lies `h / (a xn + b yn + c)` deep.
+    terms: [f32; 3],
+}
+
+impl Attitude {
+    /// A level rover: the camera only tilted down by `tilt_deg`.
+    pub fn level(tilt_deg: f32) -> Self {
+        let t = tilt_deg.to_radians();
+        Self {
+            terms: [0.0, libm::cosf(t), libm::sinf(t)],
+        }
+    }
+
+    /// The camera of `view` on a rover with the pitch and roll of `pose` (its position and
+    /// heading do not matter here).
+    pub fn of_view(
+        camera: &CameraParams,
+        pose: &RoverPose,
+        view: View,
+    ) -> Result<Self, CameraError> {
+        pose.validate()?;
+        if pose.pitch_deg == 0.0 && pose.roll_deg == 0.0 {
+            // Exactly the level rig's terms (the rotations below round in the last bits).
+            return Ok(Self::level(camera.tilt_deg));
+        }
+        let at = RoverPose {
+            x_m: 0.0,
+            y_m: 0.0,
+            ground_z_m: 0.0,
+            heading_deg: 0.0,
+            ..*pose
+        };
+        let cam = Camera::new(camera, &at, view)?;
+        // The rows of `world_to_cam` are the camera axes in the world: their `z`
+        // components are the world's up in camera coordinates.
+        let m = &cam.world_to_cam;
+        Ok(Self {
+            terms: [-m[(0, 2)], -m[(1, 2)], -m[(2, 2)]],
+        })
+    }
+
+    /// `(a, b, c)`: the flat ground under normalized pixel `(xn, yn)` lies at depth
+    /// `h / (a xn + b yn + c)` (metres, `h` the camera height).
+    pub fn ground_terms(&self) -> [f32; 3] {
+        self.terms
+    }
+}
+
 impl RowRanges {
-    /// The ranges of matching level `level` (frames reduced by `downsample << level`).
+    /// The ranges of matching level `level` (frames reduced by `downsample << level`), level
+    /// rover.
+    #[cfg(test)]
     pub(crate) fn new(camera: &CameraParams, p: &StereoParams, level: u8) -> Self {
-        Self::with_rows(camera, p, level, 1)
+        Self::with_rows(camera, p, level, 1, &Attitude::level(camera.tilt_deg))
     }
 
     /// As [`RowRanges::new`] with the rows reduced `row_mult` times more (the paired rows of
-    /// [`super::scale`]).
+    /// [`super::scale`]), for a camera of attitude `att`.
     pub(crate) fn with_rows(
         camera: &CameraParams,
         p: &StereoParams,
         level: u8,
         row_mult: u32,
+        att: &Attitude,
     ) -> Self {
         let factor = u32::from(p.downsample) << level.min(8);
         let rf = u32::from(p.row_factor.max(1)) * row_mult.max(1);
@@ -69,8 +138,10 @@ impl RowRanges {
         let kv = (factor * rf) as f32;
         let focal = camera.focal_px() / k;
         let m = p.attitude_margin_deg.to_radians();
-        let t = camera.tilt_deg.to_radians();
-        let (t0, t1) = (t - m, t + m);
+        // Up vectors `m` of pitch and `m` of roll apart are `acos(cos^2 m)` apart; a unit
+        // vector turned by `theta` moves by `2 sin(theta / 2)`.
+        let cm = libm::cosf(m);
+        let theta = libm::acosf((cm * cm).min(1.0));
         let half = libm::tanf(0.5 * camera.hfov_deg.to_radians());
         let depth_lim = camera.height_m + p.relief_below_m;
         let zmax = libm::sqrtf(p.max_ground_range_m * p.max_ground_range_m + depth_lim * depth_lim);
@@ -87,9 +158,10 @@ impl RowRanges {
                 .then_some((p.relief_above_near_m, p.relief_above_grade)),
             below: p.relief_below_m,
             inv_zmax: 1.0 / zmax,
-            sin_t: [libm::sinf(t0), libm::sinf(t1)],
-            cos_t: [libm::cosf(t0), libm::cosf(t1)],
-            roll_term: half * libm::sinf(m),
+            nom: att.terms,
+            half,
+            root: libm::sqrtf(half * half + 1.0),
+            marg: 2.0 * libm::sinf(0.5 * theta),
             radius: usize::from(p.radius_px),
         }
     }
@@ -146,10 +218,15 @@ impl RowRanges {
             return None;
         }
         let yn = (v as f32 + 0.5 - self.cy) / self.focal_rows;
-        let s0 = self.sin_t[0] + yn * self.cos_t[0];
-        let s1 = self.sin_t[1] + yn * self.cos_t[1];
-        let s_lo = s0.min(s1) - self.roll_term;
-        let s_hi = s0.max(s1) + self.roll_term;
+        let [a, b, c] = self.nom;
+        // `s` over the row (`|xn| <= half`) and over the attitude's uncertainty (`|d (a, b,
+        // c)| <= marg`, so `s` moves by at most `marg |(xn, yn, 1)|`, and `sqrt(r^2 + yn^2)
+        // <= r + yn^2 / (2 r)`: no square root per row).
+        let s_mid = b * yn + c;
+        let spread =
+            libm::fabsf(a) * self.half + self.marg * (self.root + yn * yn / (2.0 * self.root));
+        let s_lo = s_mid - spread;
+        let s_hi = s_mid + spread;
         if s_hi.is_nan() || s_hi <= 0.0 {
             return None;
         }
@@ -231,6 +308,7 @@ impl RowRanges {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::{Camera, RoverPose, View};
 
     #[test]
     fn flat_ground_inside_each_range_and_sky_skipped() {
@@ -354,5 +432,83 @@ mod tests {
             ..full
         };
         assert_eq!(RowRanges::new(&cam, &off, 0), a);
+    }
+
+    #[test]
+    fn ranges_follow_the_rovers_attitude() {
+        let cam = CameraParams::default();
+        let p = StereoParams {
+            attitude_margin_deg: 0.5,
+            ..StereoParams::default()
+        };
+        let level = RowRanges::with_rows(&cam, &p, 0, 1, &Attitude::level(cam.tilt_deg));
+        let f = level.focal_px();
+        // Whether the flat ground under working pixel `(u, v)` of `truth` lies inside row
+        // `v`'s range of `r` (with the pixel of widening each side), when it is within the
+        // ground range.
+        let inside =
+            |r: &RowRanges, truth: &Camera, u: usize, v: usize| -> Option<bool> {
+                let (xn, yn) = ((u as f32 + 0.5 - 160.0) / f, (v as f32 + 0.5 - 90.0) / f);
+                let m = &truth.world_to_cam;
+                let s = -(m[(0, 2)] * xn + m[(1, 2)] * yn + m[(2, 2)]);
+                if s <= 1e-3 {
+                    return None;
+                }
+                let z = cam.height_m / s;
+                if z * libm::sqrtf(1.0 + xn * xn + yn * yn) > 35.0 {
+                    return None;
+                }
+                let d = f * p.baseline_m / z;
+                Some(r.row(v).is_some_and(|(lo, hi)| {
+                    lo as f32 + 1.0 <= d + 1e-3 && d <= hi as f32 - 1.0 + 1e-3
+                }))
+            };
+        let mut checked = 0;
+        let mut level_misses = 0;
+        for (pitch, roll) in [(0.0, 0.0), (6.0, 0.0), (0.0, -6.0), (4.0, 5.0), (-8.0, 3.0)] {
+            let pose = RoverPose {
+                pitch_deg: pitch,
+                roll_deg: roll,
+                ..RoverPose::level(10.0, -4.0, 1.0, 37.0)
+            };
+            for view in View::ALL {
+                let att = Attitude::of_view(&cam, &pose, view).unwrap();
+                let r = RowRanges::with_rows(&cam, &p, 0, 1, &att);
+                // The true attitude anywhere within the margin of the given one (a hair
+                // inside it: the bound is exact for a level nominal, to fourth order
+                // otherwise).
+                for (dp, dr) in [
+                    (0.0, 0.0),
+                    (0.49, 0.49),
+                    (-0.49, 0.49),
+                    (0.49, -0.49),
+                    (-0.49, -0.49),
+                ] {
+                    let at = RoverPose {
+                        pitch_deg: pitch + dp,
+                        roll_deg: roll + dr,
+                        ..pose
+                    };
+                    let truth = Camera::new(&cam, &at, view).unwrap();
+                    for v in 0..180 {
+                        for u in [0, 80, 160, 240, 319] {
+                            if let Some(ok) = inside(&r, &truth, u, v) {
+                                assert!(
+                                    ok,
+                                    "pitch {pitch} roll {roll} {view:?} +({dp}, {dr}): ({u}, {v})"
+                                );
+                                checked += 1;
+                                level_misses +=
+                                    usize::from(inside(&level, &truth, u, v) == Some(false));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 20_000, "{checked}");
+        // The level rover's ranges miss the ground of a tilted one: the rig must follow
+        // the attitude.
+        assert!(level_misses > 1_000, "{level_misses}");
     }
 }

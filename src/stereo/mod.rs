@@ -63,7 +63,7 @@ mod swar;
 pub use band::{BandReport, StereoView};
 pub use prefilter::{downsample_row, downsample_row_by, prefilter};
 
-use crate::camera::{CameraError, CameraParams};
+use crate::camera::{CameraError, CameraParams, RoverPose, View};
 use crate::image::ImageView;
 use crate::reproject::FrameStatus;
 use core::fmt;
@@ -154,7 +154,9 @@ pub struct StereoParams {
     /// Deepest relief below the ground under the rover, metres, >= 0: sets the smallest
     /// disparity of each row.
     pub relief_below_m: f32,
-    /// Pitch and roll the ranges allow for, degrees, in [0, 30].
+    /// Uncertainty of the rover's pitch and of its roll that the ranges allow for,
+    /// degrees, in [0, 30]: the ranges follow the attitude the rig is given
+    /// ([`StereoRig::for_view`]; level for [`StereoRig::new`]) to within it.
     pub attitude_margin_deg: f32,
     /// Coarser scales near rows may be matched at (0..=2): level `L` reduces the frames by
     /// `downsample * 2^L` ([`scale`]); 0 matches every row at the working size.
@@ -451,9 +453,32 @@ pub struct StereoRig {
 }
 
 impl StereoRig {
-    /// Checks the camera and the settings; the error names what is wrong.
+    /// Checks the camera and the settings; the error names what is wrong. The row ranges
+    /// are those of a level rover (pitch and roll within `attitude_margin_deg` of 0).
     pub fn new(camera: &CameraParams, params: &StereoParams) -> Result<Self, StereoError> {
         camera.validate()?;
+        Self::with_attitude(camera, params, &geometry::Attitude::level(camera.tilt_deg))
+    }
+
+    /// As [`StereoRig::new`] for the camera of `view` on a rover with the pitch and roll
+    /// of `pose` (degrees; known, say from the rover's inertial unit, to within
+    /// `attitude_margin_deg`): the row ranges follow the ground as that camera sees it.
+    pub fn for_view(
+        camera: &CameraParams,
+        params: &StereoParams,
+        pose: &RoverPose,
+        view: View,
+    ) -> Result<Self, StereoError> {
+        camera.validate()?;
+        let att = geometry::Attitude::of_view(camera, pose, view)?;
+        Self::with_attitude(camera, params, &att)
+    }
+
+    fn with_attitude(
+        camera: &CameraParams,
+        params: &StereoParams,
+        att: &geometry::Attitude,
+    ) -> Result<Self, StereoError> {
         let p = params;
         if !(p.baseline_m.is_finite() && p.baseline_m > 0.0 && p.baseline_m <= 10.0) {
             return Err(StereoError::Baseline);
@@ -548,7 +573,7 @@ impl StereoRig {
                 && g.max_disparities() > 0
                 && g.global_max() + 2 * r + 2 <= w
         };
-        let level0 = geometry::RowRanges::new(camera, p, 0);
+        let level0 = geometry::RowRanges::with_rows(camera, p, 0, 1, att);
         let (width, level0_rows) = level0.size();
         // The working size: the frames reduced by `downsample` both ways.
         let height = camera
@@ -566,7 +591,7 @@ impl StereoRig {
         if !usable(&level0) {
             return Err(StereoError::TooSmall);
         }
-        let scales = scale::Scales::new(camera, p, usable);
+        let scales = scale::Scales::new(camera, p, att, usable);
         let levels = scales.slots().map(|l| scales.level(l));
         let max_disp = 4 * levels.clone().map(|g| g.max_groups()).max().unwrap_or(0);
         let words = levels

@@ -20,7 +20,7 @@
 //! row takes the coarsest level that covers it. With `row_factor` 2 every level's rows are
 //! twice as tall (level 0 too). Set-up math (`f32`, once per rig).
 
-use super::geometry::RowRanges;
+use super::geometry::{Attitude, RowRanges};
 use super::StereoParams;
 use crate::camera::CameraParams;
 
@@ -92,10 +92,11 @@ impl Scales {
     pub(crate) fn new(
         camera: &CameraParams,
         params: &StereoParams,
+        att: &Attitude,
         usable: impl Fn(&RowRanges) -> bool,
     ) -> Self {
         let geo: [RowRanges; SLOTS] = [(0u8, 1u32), (1, 1), (2, 1), (0, 2)]
-            .map(|(l, m)| RowRanges::with_rows(camera, params, l, m));
+            .map(|(l, m)| RowRanges::with_rows(camera, params, l, m, att));
         let rf = usize::from(params.row_factor.max(1));
         let height = camera
             .height_px
@@ -157,8 +158,8 @@ impl Scales {
         });
         let k = camera.height_px as f32 / height.max(1) as f32;
         let f = camera.focal_px() / k;
-        let t = camera.tilt_deg.to_radians();
-        let (st, ct) = (libm::sinf(t), libm::cosf(t));
+        // The centre column's flat ground at the view's attitude: `s = c + yn b`.
+        let [_, ct, st] = att.ground_terms();
         let cy = 0.5 * height as f32;
         let mut me = Self {
             geo,
@@ -349,7 +350,7 @@ mod tests {
             pair_rows_m: 0.0,
             ..StereoParams::default()
         };
-        let s = Scales::new(&cam, &p, |_| true);
+        let s = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |_| true);
         assert!(s.used() >= 2, "the rig uses a coarser level");
         let (a, b) = s.rows_of_level(1);
         assert!(a < b && b == 180 && a % 2 == 0, "{a} {b}");
@@ -382,6 +383,7 @@ mod tests {
                 scale_levels: 0,
                 ..p
             },
+            &Attitude::level(cam.tilt_deg),
             |_| true,
         );
         assert_eq!(one.used(), 1);
@@ -400,7 +402,7 @@ mod tests {
             pair_rows_m: 0.0,
             ..StereoParams::default()
         };
-        let s = Scales::new(&cam, &p, |_| true);
+        let s = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |_| true);
         assert_eq!(s.used(), 3);
         let (a1, b1) = s.rows_of_level(1);
         let (a2, b2) = s.rows_of_level(2);
@@ -413,7 +415,9 @@ mod tests {
         assert_eq!(s.level_of_row(a2 - 1), 1);
         assert_eq!(s.level_of_row(a1 - 1), 0);
         // A level that cannot be matched is not used, nor any coarser one.
-        let t = Scales::new(&cam, &p, |g| g.size().0 >= 160);
+        let t = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |g| {
+            g.size().0 >= 160
+        });
         assert_eq!(t.used(), 2);
         assert_eq!(t.rows_of_level(2), (180, 180));
     }
@@ -425,7 +429,7 @@ mod tests {
             row_factor: 2,
             ..StereoParams::default()
         };
-        let s = Scales::new(&cam, &p, |_| true);
+        let s = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |_| true);
         assert_eq!((s.rows_per(0), s.rows_per(1), s.rows_per(2)), (2, 4, 8));
         assert_eq!(s.level(0).size(), (320, 90));
         // Every working row has a level; its level row lies inside that level's image.
@@ -460,7 +464,12 @@ mod tests {
         }
         assert!(checked > 100, "{checked}");
         // At the working size (level 0 of a `row_factor` 1 rig) the scale is 1.
-        let s1 = Scales::new(&cam, &StereoParams { row_factor: 1, ..p }, |_| true);
+        let s1 = Scales::new(
+            &cam,
+            &StereoParams { row_factor: 1, ..p },
+            &Attitude::level(cam.tilt_deg),
+            |_| true,
+        );
         assert_eq!(s1.row_scale_q15(0, 100, 100, true), 1 << ROW_SCALE_BITS);
     }
 
@@ -471,7 +480,7 @@ mod tests {
             pair_rows_m: 0.25,
             ..StereoParams::default()
         };
-        let s = Scales::new(&cam, &p, |_| true);
+        let s = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |_| true);
         let (a, b) = s.rows_of_level(PAIRED);
         let (a1, _) = s.rows_of_level(1);
         // Pairs from an even row down to the first row of level 1.
@@ -505,6 +514,7 @@ mod tests {
                 pair_rows_m: 0.0,
                 ..p
             },
+            &Attitude::level(cam.tilt_deg),
             |_| true,
         );
         assert_eq!(none.rows_of_level(PAIRED), (180, 180));

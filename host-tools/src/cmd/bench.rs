@@ -75,6 +75,9 @@ pub struct Args {
     /// stereo: relief searched below the ground under the rover, metres.
     #[arg(long, allow_negative_numbers = true, default_value_t = orbfix::stereo::StereoParams::default().relief_below_m)]
     relief_below: f32,
+    /// stereo: pitch and roll margin around the rover's attitude, degrees.
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().attitude_margin_deg)]
+    attitude_margin: f32,
     /// stereo: coarser scales near rows may be matched at (0..=2; 0: every row at the
     /// working size).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().scale_levels)]
@@ -179,6 +182,7 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         relief_above_near_m: args.relief_above_near,
         relief_above_grade: args.relief_above_grade,
         relief_below_m: args.relief_below,
+        attitude_margin_deg: args.attitude_margin,
         scale_levels: args.scale_levels,
         scale_error_m: args.scale_error,
         row_factor: args.row_factor,

@@ -3,7 +3,9 @@
 
 use anyhow::Context;
 use orbfix::localize::LocalizeConfig;
-use orbfix_host::eval::pipeline::{Condition, DepthSource, PipelineOptions, Reprojection};
+use orbfix_host::eval::pipeline::{
+    Condition, DepthSource, PipelineOptions, Reprojection, RoverAttitude,
+};
 use orbfix_host::eval::run::{run_eval, EvalConfig, EvalOutput};
 use orbfix_host::eval::{
     figures, overlay, parse_matchers, save_png_atomic, write_atomic, FIX_OPTIONS, MATCHERS,
@@ -85,6 +87,11 @@ pub struct Args {
     /// read every s-th pixel, at most half a cell apart on flat ground; 4 = the fix's default).
     #[arg(long, default_value_t = 4)]
     pub column_stride: u8,
+    /// How the rover stands at each stop: level whatever the slope, or pitched and rolled
+    /// by the terrain under its wheels (2 m wheelbase and track); the fix is given the
+    /// attitude, as the rover's inertial unit would measure it.
+    #[arg(long, value_enum, default_value_t = RoverAttitude::Level)]
+    pub rover_attitude: RoverAttitude,
     /// Diagnostic: a world with zero relief and the same albedo.
     #[arg(long)]
     pub flat_world: bool,
@@ -149,6 +156,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 max_column_stride: a.column_stride,
                 ..Default::default()
             },
+            attitude: a.rover_attitude,
             ..PipelineOptions::default()
         },
         keep_examples: if a.figures.is_some() { a.examples } else { 0 },

@@ -34,7 +34,8 @@ pub const FIX_OPTIONS: &str = "-pN (coarse peaks refined), -mnN (smallest NCC ke
 -mnsN (smallest NCC kept with the fix's own stereo depth), -nmN (NCC margin another refined \
 peak needs over the CNN's best with the fix's own stereo depth), \
 -raN / -rbN (stereo: relief searched above / below the ground, metres), -anN / -agN \
-(stereo: relief above near the rover, metres, growing by N metres per metre of depth up to -ra), -srN (stereo: \
+(stereo: relief above near the rover, metres, growing by N metres per metre of depth up to -ra), \
+-amN (stereo: pitch and roll margin around the rover's attitude, degrees), -srN (stereo: \
 ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -rrN (stereo: \
 window radius down, rows), -seN (stereo: coarser scale where a quarter pixel moves the ground \
 at most N metres), -spN (stereo sub-pixel fit: 0 parabola, 1 equiangular), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
@@ -105,7 +106,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         let (key, value) = part.split_at(at);
         if ![
             "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
-            "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr", "mx", "gf", "an", "ag",
+            "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr", "mx", "gf", "an", "ag", "am",
         ]
         .contains(&key)
         {
@@ -130,6 +131,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "ra" => m.relief_above_m = v,
             "an" => m.relief_above_near_m = v,
             "ag" => m.relief_above_grade = v,
+            "am" => m.attitude_margin_deg = v,
             "rb" => m.relief_below_m = v,
             "sr" => m.max_ground_range_m = v,
             "se" => m.scale_error_m = v,

@@ -70,6 +70,23 @@ impl DepthSource {
     }
 }
 
+/// How the rover stands at a stop.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum RoverAttitude {
+    /// Level whatever the slope (pitch and roll 0).
+    #[default]
+    Level,
+    /// Pitched and rolled by the terrain's slope under its wheels
+    /// ([`render::terrain_pose`], a 2 m wheelbase and track); the fix is given that
+    /// attitude, as an inertial unit would measure it.
+    Terrain,
+}
+
+/// Wheelbase and track of the rover [`RoverAttitude::Terrain`] stands on the slope with,
+/// metres.
+pub const WHEELBASE_M: f64 = 2.0;
+
 /// Pipeline settings shared by every query.
 #[derive(Clone, Debug)]
 pub struct PipelineOptions {
@@ -90,6 +107,8 @@ pub struct PipelineOptions {
     /// The core's stereo matcher settings of the stereo path (its baseline is set from
     /// `stereo_rig`).
     pub stereo: orbfix::stereo::StereoParams,
+    /// How the rover stands at each stop (level, or on the slope).
+    pub attitude: RoverAttitude,
 }
 
 impl PipelineOptions {
@@ -113,6 +132,7 @@ impl Default for PipelineOptions {
             range: orbfix::fix::FixConfig::default().range,
             stereo_rig: render::stereo::StereoRender::default(),
             stereo: orbfix::fix::FixConfig::default().stereo.matcher,
+            attitude: RoverAttitude::Level,
         }
     }
 }
@@ -189,7 +209,12 @@ pub fn observe_raw(
     sun: Sun,
     opts: &PipelineOptions,
 ) -> anyhow::Result<Observation> {
-    let pose = render::ground_pose(world, x_m, y_m, heading_deg);
+    let pose = match opts.attitude {
+        RoverAttitude::Level => render::ground_pose(world, x_m, y_m, heading_deg),
+        RoverAttitude::Terrain => {
+            render::terrain_pose(world, x_m, y_m, heading_deg, WHEELBASE_M, WHEELBASE_M)
+        }
+    };
     let params = opts.render.camera_params();
     match opts.reprojection {
         Reprojection::Lut => {

@@ -75,6 +75,8 @@ pub struct QueryResult {
     pub nonmatch_score: f64,
     /// Valid share of the top-down image.
     pub coverage: f64,
+    /// The rover's pitch and roll at the stop, degrees (0, 0 when it stands level).
+    pub attitude_deg: (f64, f64),
     /// Seconds of the dense fix.
     pub dense_s: f64,
     /// Seconds of the window search.
@@ -227,6 +229,7 @@ fn run_query(
 ) -> anyhow::Result<(Vec<QueryResult>, Option<Example>)> {
     let (obs, top, map) = render_query_full(world, q, &cfg.pipeline)?;
     let coverage = top.mask.iter().filter(|&&m| m != 0).count() as f64 / top.mask.len() as f64;
+    let attitude_deg = (obs.pose.pitch_deg as f64, obs.pose.roll_deg as f64);
     let mut results = Vec::new();
     let mut locs = Vec::new();
     let n = top.n;
@@ -304,6 +307,7 @@ fn run_query(
                 match_score: at(tcol, trow),
                 nonmatch_score: at(ncol, nrow),
                 coverage,
+                attitude_deg,
                 dense_s: out.seconds,
                 windows_s: 0.0,
                 macs: [loc.fix.ops_coarse.macs, r.ops.refine_macs, 0],
@@ -356,6 +360,7 @@ fn run_query(
             match_score: score_at(&spec, &top, &prepared, &map, tcol, trow)?,
             nonmatch_score: score_at(&spec, &top, &prepared, &map, ncol, nrow)?,
             coverage,
+            attitude_deg,
             dense_s: loc.dense_s,
             windows_s: loc.windows_s,
             macs: [
@@ -457,6 +462,7 @@ pub fn run_eval_on(
         "nms_radius_m": cfg.localize.nms_radius_m,
         "camera": cfg.pipeline.render.camera,
         "depth": cfg.pipeline.reprojection.depth_name(),
+        "rover_attitude": cfg.pipeline.attitude,
         "stereo_baseline_m": cfg.pipeline.stereo_rig.baseline_m,
         "stereo": format!("{:?}", cfg.pipeline.stereo_params()),
     });

@@ -579,6 +579,43 @@ pub fn ground_pose(world: &dyn Surface, x_m: f64, y_m: f64, heading_deg: f64) ->
     )
 }
 
+/// The rover standing on the terrain at `(x_m, y_m)` with a heading (degrees clockwise from
+/// north), pitched and rolled by the slope under it: the least-squares plane through the
+/// heights of a 5 x 5 grid over its `wheelbase_m` x `track_m` footprint (metres), so
+/// pebbles and clods under one wheel do not tip it. `ground_z_m` is the terrain height at
+/// the centre, as for [`ground_pose`].
+pub fn terrain_pose(
+    world: &dyn Surface,
+    x_m: f64,
+    y_m: f64,
+    heading_deg: f64,
+    wheelbase_m: f64,
+    track_m: f64,
+) -> RoverPose {
+    let (sh, ch) = heading_deg.to_radians().sin_cos();
+    // Forward (east, north) = (sin h, cos h); right = (cos h, -sin h) (`camera::Camera`).
+    let (mut suz, mut suu, mut svz, mut svv) = (0.0, 0.0, 0.0, 0.0);
+    for i in -2..=2 {
+        for j in -2..=2 {
+            let u = 0.25 * i as f64 * wheelbase_m;
+            let v = 0.25 * j as f64 * track_m;
+            let z = world.height_m(x_m + u * sh + v * ch, y_m + u * ch - v * sh);
+            suz += u * z;
+            suu += u * u;
+            svz += v * z;
+            svv += v * v;
+        }
+    }
+    let pitch = (suz / suu).atan();
+    // Right side down positive: the ground falling to the right.
+    let roll = (-svz / svv).atan();
+    RoverPose {
+        pitch_deg: pitch.to_degrees() as f32,
+        roll_deg: roll.to_degrees() as f32,
+        ..ground_pose(world, x_m, y_m, heading_deg)
+    }
+}
+
 /// As [`ground_pose`] on any [`Surface`].
 pub fn ground_pose_on(surface: &dyn Surface, x_m: f64, y_m: f64, heading_deg: f64) -> RoverPose {
     RoverPose::level(

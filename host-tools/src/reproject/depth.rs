@@ -91,15 +91,8 @@ pub fn stereo_depth_images(
 ) -> anyhow::Result<[Vec<u16>; 4]> {
     use orbfix::image::ImageView;
     use orbfix::stereo::{StereoError, StereoRig};
-    let rig = StereoRig::new(params, stereo)
-        .map_err(|e| anyhow::anyhow!("the stereo settings were refused: {e}"))?;
-    let s = rig.buffer_sizes();
-    let (wo, ho) = rig.output_size();
     let (w, h) = (params.width_px as usize, params.height_px as usize);
     let k = usize::from(stereo.downsample);
-    let mut bytes = vec![0u8; s.bytes];
-    let mut words = vec![0u16; s.words];
-    let mut small = vec![0u16; wo * ho];
     let mut out: [Vec<u16>; 4] = Default::default();
     for ((o, (l, r)), which) in out
         .iter_mut()
@@ -107,6 +100,14 @@ pub fn stereo_depth_images(
         .zip(orbfix::camera::View::ALL)
     {
         *o = vec![0u16; w * h];
+        // The view's row ranges follow the rover's pitch and roll (the fix's rig).
+        let rig = StereoRig::for_view(params, stereo, pose, which)
+            .map_err(|e| anyhow::anyhow!("the stereo settings were refused: {e}"))?;
+        let s = rig.buffer_sizes();
+        let (wo, ho) = rig.output_size();
+        let mut bytes = vec![0u8; s.bytes];
+        let mut words = vec![0u16; s.words];
+        let mut small = vec![0u16; wo * ho];
         let expander = orbfix::reproject::DepthExpander::new(params, pose, which)
             .map_err(|e| anyhow::anyhow!("bad rig or pose: {e}"))?;
         fn view(g: &image::GrayImage) -> anyhow::Result<ImageView<'_>> {
