@@ -570,8 +570,7 @@ impl StereoRig {
             w >= 2 * r + 4
                 && h >= 2 * rv + 2
                 && w <= 32_767
-                && g.max_disparities() > 0
-                && g.global_max() + 2 * r + 2 <= w
+                && matches!(g.union(0, h), Some((_, hi)) if hi + 2 * r + 2 <= w)
         };
         let level0 = geometry::RowRanges::with_rows(camera, p, 0, 1, att);
         let (width, level0_rows) = level0.size();
@@ -592,12 +591,14 @@ impl StereoRig {
             return Err(StereoError::TooSmall);
         }
         let scales = scale::Scales::new(camera, p, att, usable);
-        let levels = scales.slots().map(|l| scales.level(l));
-        let max_disp = 4 * levels.clone().map(|g| g.max_groups()).max().unwrap_or(0);
-        let words = levels
-            .map(|g| band::words_len(g.size().0, g.max_groups()))
-            .max()
-            .unwrap_or(0);
+        // Each level's widest row once (set-up math, one scan of its rows).
+        let (mut max_disp, mut words) = (0, 0);
+        for l in scales.slots() {
+            let g = scales.level(l);
+            let groups = g.max_groups();
+            max_disp = max_disp.max(4 * groups);
+            words = words.max(band::words_len(g.size().0, groups));
+        }
         let kq = level0.focal_px() * p.baseline_m * 1000.0 * (1u32 << DISPARITY_FRAC_BITS) as f32;
         if !(1.0..4.0e9).contains(&kq) {
             return Err(StereoError::Baseline);
