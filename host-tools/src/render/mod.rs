@@ -841,3 +841,51 @@ pub fn render_satellite_crop_cached(
     let img = ortho::render_ortho_cached(world, &geo, size_px, size_px, sun, opts, cache)?;
     Ok((img, geo))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Ground rising `k` metres per metre to the east.
+    struct Ramp(f64);
+
+    impl Surface for Ramp {
+        fn height_m(&self, x: f64, _y: f64) -> f64 {
+            self.0 * x
+        }
+        fn albedo(&self, _x: f64, _y: f64) -> f64 {
+            0.5
+        }
+    }
+
+    #[test]
+    fn terrain_pose_pitches_up_a_rise_and_rolls_right_side_down_on_a_fall() {
+        let ramp = Ramp(0.2);
+        let slope = 0.2f64.atan().to_degrees() as f32;
+        let near = |a: f32, b: f32| (a - b).abs() < 1e-3;
+        // Facing east: the ground rises ahead, nose up.
+        let p = terrain_pose(&ramp, 10.0, 5.0, 90.0, 2.0, 2.0);
+        assert!(near(p.pitch_deg, slope) && near(p.roll_deg, 0.0), "{p:?}");
+        assert!(near(p.ground_z_m, 2.0));
+        // Facing north: east is on the right and higher, so the right side is up.
+        let p = terrain_pose(&ramp, 10.0, 5.0, 0.0, 2.0, 2.0);
+        assert!(near(p.pitch_deg, 0.0) && near(p.roll_deg, -slope), "{p:?}");
+        // Facing south: the right (west) side is down.
+        let p = terrain_pose(&ramp, 10.0, 5.0, 180.0, 2.0, 2.0);
+        assert!(near(p.pitch_deg, 0.0) && near(p.roll_deg, slope), "{p:?}");
+        // On the level, level.
+        let p = terrain_pose(&Ramp(0.0), 10.0, 5.0, 33.0, 2.0, 2.0);
+        assert_eq!((p.pitch_deg, p.roll_deg), (0.0, 0.0));
+        // The camera of a rover facing east on the rise sees its ground as a level rover
+        // sees flat ground: the centre pixel's ray meets the ramp about h / sin(tilt) away.
+        let p = terrain_pose(&ramp, 0.0, 0.0, 90.0, 2.0, 2.0);
+        let params = RenderOptions::default().camera_params();
+        let cam = orbfix::camera::Camera::new(&params, &p, orbfix::camera::View::Front).unwrap();
+        let d = cam.world_to_cam.row(2).transpose();
+        let (c, h) = (cam.centre, params.height_m);
+        // c + t d on the plane z = 0.2 x.
+        let t = (c.z - 0.2 * c.x) / (0.2 * d.x - d.z);
+        let level = h / params.tilt_deg.to_radians().sin();
+        assert!(t > 0.0 && (t - level).abs() < 0.25 * level, "{t} {level}");
+    }
+}
