@@ -319,3 +319,38 @@ fn the_stage_clock_sees_the_stereo_stage_band_by_band() {
     scratch.work = &mut [];
     assert!(fix::run(&inputs, &cfg, &mut scratch, &mut Spans::default()).is_err());
 }
+
+#[test]
+fn a_view_whose_ranges_outgrow_the_scratch_loses_only_its_depth() {
+    let s = stop();
+    // The scratch sized for the level rover's widest row, exactly.
+    let mut cfg = FixConfig::default();
+    let level = orbfix::stereo::StereoRig::new(&s.obs.params, &cfg.stereo.matcher).unwrap();
+    cfg.stereo.max_disparities = level.buffer_sizes().max_disparities;
+    let fits = run_stereo(s, cfg, rights(s)).unwrap();
+    assert_eq!(fits.report.reprojection.stereo, Some([None; 4]));
+    // Rolled 15 degrees, the front and rear views see the ground slant across their rows:
+    // wider ranges than the scratch holds, so those two views lose their depth (a typed
+    // error) and the side views keep theirs.
+    let mut p = pose(s);
+    p.roll_deg = 15.0;
+    let out = FixRunner::shipped(cfg)
+        .run_with(
+            &s.obs.params,
+            &p,
+            s.obs.frames().unwrap(),
+            FixDepth::Stereo(rights(s)),
+            &s.product,
+        )
+        .unwrap();
+    let st = out.report.reprojection.stereo.unwrap();
+    for v in [0, 2] {
+        assert!(
+            matches!(st[v], Some(StereoError::BufferSize { needed, got, .. }) if needed > got),
+            "view {v}: {:?}",
+            st[v]
+        );
+    }
+    assert_eq!((st[1], st[3]), (None, None));
+    assert!(out.report.reprojection.valid_cells > 0);
+}
