@@ -150,6 +150,24 @@ fn fits(
     Ok(())
 }
 
+/// Replaces `rig` with the rig of `view` at the pose's pitch and roll, if it has one that
+/// fits the scratch (`bytes`, `words` elements); else leaves `rig` as it was and says why.
+/// Not inlined: the new rig is built in this frame, not the caller's.
+#[inline(never)]
+fn view_rig(
+    rig: &mut StereoRig,
+    inputs: &FixInputs<'_>,
+    sc: &StereoConfig,
+    view: View,
+    bytes: usize,
+    words: usize,
+) -> Result<(), StereoError> {
+    let v = StereoRig::for_view(&inputs.params, &sc.matcher, &inputs.pose, view)?;
+    fits(&v, sc.max_disparities, bytes, words)?;
+    *rig = v;
+    Ok(())
+}
+
 /// Stage 1 with on-board stereo: depth band by band (stage `stereo`), each band placed at
 /// once (stage `reproject`), then the top-down image (`work`: the accumulator's [`range_scratch_len`]
 /// words, then [`stereo_work_words`]).
@@ -171,7 +189,7 @@ pub(super) fn reproject_stereo<C: StageClock>(
     clock.begin(Stage::Stereo);
     let rig = StereoRig::new(&inputs.params, &sc.matcher);
     clock.end(Stage::Stereo);
-    let rig = rig.map_err(FixError::Stereo)?;
+    let mut rig = rig.map_err(FixError::Stereo)?;
     let need = rig.buffer_sizes();
     let (w, h) = rig.output_size();
     // The scratch holds whole groups of four disparities per column.
@@ -245,23 +263,20 @@ pub(super) fn reproject_stereo<C: StageClock>(
         clock.begin(Stage::Stereo);
         // A pose the rig cannot take, or ranges wider than the scratch holds (a steep
         // attitude), cost this view its depth, not the fix.
-        let vrig = StereoRig::for_view(&inputs.params, &sc.matcher, &inputs.pose, view)
-            .and_then(|v| fits(&v, sc.max_disparities, bytes.len(), words.len()).map(|()| v));
-        let stream = vrig
-            .as_ref()
-            .map_err(|e| *e)
-            .and_then(|v| v.view(left, right.as_ref(), bytes, words));
+        // The view's rig replaces the last one in place (one rig in this frame).
+        let posed = view_rig(&mut rig, inputs, sc, view, bytes.len(), words.len());
+        let stream = posed.and_then(|()| rig.view(left, right.as_ref(), bytes, words));
         clock.end(Stage::Stereo);
         let mut stream = match stream {
             Ok(s) => s,
-            Err(e) if per_view(&e) || vrig.is_err() => {
+            Err(e) if per_view(&e) || posed.is_err() => {
                 *err = Some(e);
                 acc.set_view_status(view, FrameStatus::Ok, true);
                 continue;
             }
             Err(e) => return Err(FixError::Stereo(e)),
         };
-        let mut y0 = vrig.as_ref().map_or(h, |v| v.ranges().first_active());
+        let mut y0 = rig.ranges().first_active();
         while y0 < h {
             let y1 = (y0 + sc.band_rows).min(h);
             let out = band.get_mut(..(y1 - y0) * w).ok_or(too_small)?;
