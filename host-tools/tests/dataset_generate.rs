@@ -171,6 +171,13 @@ fn attitude_is_drawn_within_bounds_and_level_rows_are_unchanged() {
         assert_eq!((a.pitch_deg, a.roll_deg), (0.0, 0.0));
         assert!(b.pitch_deg.abs() <= 5.0 && b.roll_deg.abs() <= 5.0);
         any |= b.pitch_deg != 0.0;
+        // The pose the dataset's views are reprojected with carries that attitude.
+        let p = b.pose();
+        assert_eq!(
+            (p.pitch_deg, p.roll_deg, p.heading_deg),
+            (b.pitch_deg as f32, b.roll_deg as f32, b.yaw_deg as f32)
+        );
+        assert_eq!((p.x_m, p.y_m), (b.x_m as f32, b.y_m as f32));
         // Everything else is the same draw.
         assert_eq!(
             (a.x_m, a.y_m, a.yaw_deg, a.sun_view),

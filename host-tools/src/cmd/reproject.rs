@@ -3,7 +3,6 @@
 
 use anyhow::{bail, ensure, Context, Result};
 use image::GrayImage;
-use orbfix::camera::RoverPose;
 use orbfix::image::ImageView;
 use orbfix::reproject::{
     equalize_rings, table_len, ApplyReport, BuildStats, Cell, FrameStatus, GridSpec, Lut, Tap,
@@ -119,12 +118,8 @@ pub fn top_down(
 ) -> Result<TopDown> {
     let n = grid.n;
     let params = ds.info.config.render.camera_params();
-    let pose = RoverPose::level(
-        row.x_m as f32,
-        row.y_m as f32,
-        row.ground_z_m as f32,
-        row.yaw_deg as f32,
-    );
+    // The attitude the views were rendered with (a `--max-attitude` dataset).
+    let pose = row.pose();
     let views: [GrayImage; 4] = ds
         .load_views(row)
         .with_context(|| format!("loading the views of {}", row.id))?;

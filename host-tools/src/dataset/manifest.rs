@@ -53,6 +53,23 @@ pub struct ManifestRow {
     pub right: Option<[String; 4]>,
 }
 
+impl ManifestRow {
+    /// The rover's pose at this location: position, ground height, heading and the pitch
+    /// and roll it was rendered with (0 unless the dataset was made with `--max-attitude`).
+    pub fn pose(&self) -> orbfix::camera::RoverPose {
+        orbfix::camera::RoverPose {
+            pitch_deg: self.pitch_deg as f32,
+            roll_deg: self.roll_deg as f32,
+            ..orbfix::camera::RoverPose::level(
+                self.x_m as f32,
+                self.y_m as f32,
+                self.ground_z_m as f32,
+                self.yaw_deg as f32,
+            )
+        }
+    }
+}
+
 /// `dataset.json`: what made the dataset.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DatasetInfo {

@@ -657,12 +657,8 @@ pub fn dataset_top_down(
             )
         })?;
     let views = ds.load_views(row)?;
-    let pose = orbfix::camera::RoverPose::level(
-        row.x_m as f32,
-        row.y_m as f32,
-        row.ground_z_m as f32,
-        row.yaw_deg as f32,
-    );
+    // The attitude the views were rendered with (a `--max-attitude` dataset).
+    let pose = row.pose();
     let top = reproject_views(&views, &ds.info.config.render, &pose, &GridSpec::default())?;
     Ok((top, Some((row.x_m, row.y_m))))
 }
