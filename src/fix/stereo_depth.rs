@@ -261,9 +261,9 @@ pub(super) fn reproject_stereo<C: StageClock>(
         // One stream per view: the pair is checked once, and each band continues where
         // the last one stopped. The view's row ranges follow the rover's pitch and roll.
         clock.begin(Stage::Stereo);
-        // A pose the rig cannot take, or ranges wider than the scratch holds (a steep
-        // attitude), cost this view its depth, not the fix.
-        // The view's rig replaces the last one in place (one rig in this frame).
+        // The view's rig replaces the last one in place (one rig in this frame); a pose
+        // the rig cannot take, or ranges wider than the scratch holds (a steep attitude),
+        // cost this view its depth, not the fix.
         let posed = view_rig(&mut rig, inputs, sc, view, bytes.len(), words.len());
         let stream = posed.and_then(|()| rig.view(left, right.as_ref(), bytes, words));
         clock.end(Stage::Stereo);
