@@ -13,11 +13,14 @@
 pub mod detail;
 pub mod ortho;
 pub mod ply;
+mod pose;
 pub mod raster;
 mod shade;
 pub mod shadow;
 pub mod stereo;
 pub mod terrain;
+
+pub use pose::{ground_pose, ground_pose_on, terrain_pose};
 
 use crate::world::micro::MicroRelief;
 use crate::world::{HeightGrid, Rock, World};
@@ -568,64 +571,6 @@ impl GrayMap {
     }
 }
 
-/// The rover standing level on the terrain at `(x_m, y_m)` with a heading (degrees clockwise
-/// from north); `ground_z_m` is the terrain height there.
-pub fn ground_pose(world: &dyn Surface, x_m: f64, y_m: f64, heading_deg: f64) -> RoverPose {
-    RoverPose::level(
-        x_m as f32,
-        y_m as f32,
-        world.height_m(x_m, y_m) as f32,
-        heading_deg as f32,
-    )
-}
-
-/// The rover standing on the terrain at `(x_m, y_m)` with a heading (degrees clockwise from
-/// north), pitched and rolled by the slope under it: the least-squares plane through the
-/// heights of a 5 x 5 grid over its `wheelbase_m` x `track_m` footprint (metres), so
-/// pebbles and clods under one wheel do not tip it. `ground_z_m` is the terrain height at
-/// the centre, as for [`ground_pose`].
-pub fn terrain_pose(
-    world: &dyn Surface,
-    x_m: f64,
-    y_m: f64,
-    heading_deg: f64,
-    wheelbase_m: f64,
-    track_m: f64,
-) -> RoverPose {
-    let (sh, ch) = heading_deg.to_radians().sin_cos();
-    // Forward (east, north) = (sin h, cos h); right = (cos h, -sin h) (`camera::Camera`).
-    let (mut suz, mut suu, mut svz, mut svv) = (0.0, 0.0, 0.0, 0.0);
-    for i in -2..=2 {
-        for j in -2..=2 {
-            let u = 0.25 * i as f64 * wheelbase_m;
-            let v = 0.25 * j as f64 * track_m;
-            let z = world.height_m(x_m + u * sh + v * ch, y_m + u * ch - v * sh);
-            suz += u * z;
-            suu += u * u;
-            svz += v * z;
-            svv += v * v;
-        }
-    }
-    let pitch = (suz / suu).atan();
-    // Right side down positive: the ground falling to the right.
-    let roll = (-svz / svv).atan();
-    RoverPose {
-        pitch_deg: pitch.to_degrees() as f32,
-        roll_deg: roll.to_degrees() as f32,
-        ..ground_pose(world, x_m, y_m, heading_deg)
-    }
-}
-
-/// As [`ground_pose`] on any [`Surface`].
-pub fn ground_pose_on(surface: &dyn Surface, x_m: f64, y_m: f64, heading_deg: f64) -> RoverPose {
-    RoverPose::level(
-        x_m as f32,
-        y_m as f32,
-        surface.height_m(x_m, y_m) as f32,
-        heading_deg as f32,
-    )
-}
-
 /// The four views of a rover plus their range images.
 #[derive(Clone, Debug)]
 pub struct ViewSet {
@@ -840,52 +785,4 @@ pub fn render_satellite_crop_cached(
     .map_err(|e| RenderError::Option(format!("bad satellite georeference: {e}")))?;
     let img = ortho::render_ortho_cached(world, &geo, size_px, size_px, sun, opts, cache)?;
     Ok((img, geo))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Ground rising `k` metres per metre to the east.
-    struct Ramp(f64);
-
-    impl Surface for Ramp {
-        fn height_m(&self, x: f64, _y: f64) -> f64 {
-            self.0 * x
-        }
-        fn albedo(&self, _x: f64, _y: f64) -> f64 {
-            0.5
-        }
-    }
-
-    #[test]
-    fn terrain_pose_pitches_up_a_rise_and_rolls_right_side_down_on_a_fall() {
-        let ramp = Ramp(0.2);
-        let slope = 0.2f64.atan().to_degrees() as f32;
-        let near = |a: f32, b: f32| (a - b).abs() < 1e-3;
-        // Facing east: the ground rises ahead, nose up.
-        let p = terrain_pose(&ramp, 10.0, 5.0, 90.0, 2.0, 2.0);
-        assert!(near(p.pitch_deg, slope) && near(p.roll_deg, 0.0), "{p:?}");
-        assert!(near(p.ground_z_m, 2.0));
-        // Facing north: east is on the right and higher, so the right side is up.
-        let p = terrain_pose(&ramp, 10.0, 5.0, 0.0, 2.0, 2.0);
-        assert!(near(p.pitch_deg, 0.0) && near(p.roll_deg, -slope), "{p:?}");
-        // Facing south: the right (west) side is down.
-        let p = terrain_pose(&ramp, 10.0, 5.0, 180.0, 2.0, 2.0);
-        assert!(near(p.pitch_deg, 0.0) && near(p.roll_deg, slope), "{p:?}");
-        // On the level, level.
-        let p = terrain_pose(&Ramp(0.0), 10.0, 5.0, 33.0, 2.0, 2.0);
-        assert_eq!((p.pitch_deg, p.roll_deg), (0.0, 0.0));
-        // The camera of a rover facing east on the rise sees its ground as a level rover
-        // sees flat ground: the centre pixel's ray meets the ramp about h / sin(tilt) away.
-        let p = terrain_pose(&ramp, 0.0, 0.0, 90.0, 2.0, 2.0);
-        let params = RenderOptions::default().camera_params();
-        let cam = orbfix::camera::Camera::new(&params, &p, orbfix::camera::View::Front).unwrap();
-        let d = cam.world_to_cam.row(2).transpose();
-        let (c, h) = (cam.centre, params.height_m);
-        // c + t d on the plane z = 0.2 x.
-        let t = (c.z - 0.2 * c.x) / (0.2 * d.x - d.z);
-        let level = h / params.tilt_deg.to_radians().sin();
-        assert!(t > 0.0 && (t - level).abs() < 0.25 * level, "{t} {level}");
-    }
 }
