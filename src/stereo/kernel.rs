@@ -396,15 +396,14 @@ pub(crate) unsafe fn update_columns(u: &mut UpdateCols) {
                 "uqsub8 lr, r9, r12",
                 "uqsub8 r12, r12, r9",
                 "orr r12, r12, lr",
+                // The new row's cost minus the old one's, per byte: both at most 126
+                // (`2 prefilter_cap`), so the signed byte difference is exact, and each
+                // lane takes it sign-extended (the sum stays a column cost: no lane
+                // carries or borrows).
+                "ssub8 r11, r11, r12",
                 "ldrd r1, r2, [r5]",
-                "uxtb16 lr, r11",
-                "add r1, r1, lr",
-                "uxtb16 lr, r12",
-                "sub r1, r1, lr",
-                "uxtb16 lr, r11, ror #8",
-                "add r2, r2, lr",
-                "uxtb16 lr, r12, ror #8",
-                "sub r2, r2, lr",
+                "sxtab16 r1, r1, r11",
+                "sxtab16 r2, r2, r11, ror #8",
                 "strd r1, r2, [r5], #8",
                 "subs r10, r10, #1",
                 "bne 31b",
