@@ -11,11 +11,11 @@
 use super::expand::{expand_row, Passed, RowPlace};
 use super::fill::fill_gaps;
 use super::kernel::{
-    add_groups, column, decide, right_groups, slide, slide_min, threshold, update_columns,
+    add_groups, column, decide, right_groups, slide, slide_min, unique, update_columns,
     ColumnParams, LaneMin, UpdateCols, EDGE, UNIQUE,
 };
 use super::speckle::finish_row;
-use super::swar::{absdiff_u8x4, min2_u16x2, split_u8x4, word};
+use super::swar::{absdiff_u8x4, split_u8x4, word};
 use super::{
     Side, StereoBuffer, StereoError, StereoRig, SubPixel, DISPARITY_FRAC_BITS, MAX_RADIUS,
 };
@@ -223,7 +223,7 @@ fn absdiff(a: u8, b: u8) -> u32 {
 /// 30,240 < 2^16, and what is removed is part of the sum, so no lane ever carries into or
 /// borrows from the other and plain `u32` adds and subtracts are exact lane by lane.
 #[inline(always)]
-fn lane(j: usize) -> (usize, u32) {
+pub(crate) fn lane(j: usize) -> (usize, u32) {
     // Word 2g + 1 for j % 4 in {0, 2}, 2g for {1, 3}; the high lane for {0, 1}.
     (2 * (j >> 2) + ((j & 1) ^ 1), (((j & 2) ^ 2) as u32) << 3)
 }
@@ -427,42 +427,6 @@ fn lane_cost(ap: &[u32], j: usize) -> u32 {
     ap.get(i).map_or(u32::MAX, |&v| (v >> s) & 0xffff)
 }
 
-/// The smallest cost of the row's words outside indices `j - 1 ..= j + 1` (relative to
-/// the row's first group, inside its range, `j >= 1`); a result of [`BIAS`] or more means
-/// none. The three lanes lie in group `(j - 1) / 4` and, from `(j - 1) % 4 = 2` on, the
-/// next: those four words are taken with the three lanes masked (`0xffff`, above every
-/// cost), the others as they are.
-fn runner_up(ap: &[u32], j: usize) -> u32 {
-    // Per `(j - 1) % 4`: masks of words 2g, 2g + 1, 2g + 2, 2g + 3 (word 2g: index 4g + 3
-    // low, 4g + 1 high; word 2g + 1: 4g + 2 low, 4g high; [`lane`]).
-    static MASKS: [[u32; 4]; 4] = [
-        // 4g, 4g + 1, 4g + 2.
-        [0xffff_0000, 0xffff_ffff, 0, 0],
-        // 4g + 1, 4g + 2, 4g + 3.
-        [0xffff_ffff, 0x0000_ffff, 0, 0],
-        // 4g + 2, 4g + 3, 4g + 4.
-        [0x0000_ffff, 0x0000_ffff, 0, 0xffff_0000],
-        // 4g + 3, 4g + 4, 4g + 5.
-        [0x0000_ffff, 0, 0xffff_0000, 0xffff_0000],
-    ];
-    let (g, c) = ((j - 1) >> 2, (j - 1) & 3);
-    let w1 = (2 * g).min(ap.len());
-    let w2 = (w1 + 4).min(ap.len());
-    let mut m = u32::MAX;
-    for &v in ap.get(..w1).unwrap_or(&[]) {
-        m = min2_u16x2(m, v);
-    }
-    for &v in ap.get(w2..).unwrap_or(&[]) {
-        m = min2_u16x2(m, v);
-    }
-    if let Some(masks) = MASKS.get(c) {
-        for (&v, &k) in ap.get(w1..w2).unwrap_or(&[]).iter().zip(masks) {
-            m = min2_u16x2(m, v | k);
-        }
-    }
-    (m & 0xffff).min(m >> 16)
-}
-
 /// The slide and lane minima of a column before the steady ones ([`match_row`]): `x == r`
 /// (the first window, no slide) or right pixels partly outside the image.
 #[inline(never)]
@@ -542,46 +506,44 @@ fn right_first_columns(
     }
 }
 
-/// A column whose winner `key` (`cost << 16 | index`) passed [`decide`]: the exact
-/// runner-up more than one index away ([`runner_up`]) against the uniqueness threshold,
-/// then the sub-pixel disparity (Q4, at least 1) or `None`.
-#[cold]
-#[inline(never)]
-fn accept(ap: &[u32], key: u32, prm: &ColumnParams, d0: usize, sub: SubPixel) -> Option<u16> {
+/// The sub-pixel disparity (Q4, at least 1) of a unique winner `key` (`cost << 16 |
+/// index`, index from `d0`) whose neighbours' costs are `costs` (index - 1 low, index + 1
+/// high).
+#[inline(always)]
+fn sub_pixel(key: u32, costs: u32, d0: usize, sub: SubPixel) -> u16 {
     let (best, j) = (key >> 16, (key & 0xffff) as usize);
-    if j == 0 || runner_up(ap, j) < threshold(best, prm) {
-        return None;
-    }
     let frac = sub.offset(
-        lane_cost(ap, j - 1) as i32,
+        (costs & 0xffff) as i32,
         best as i32,
-        lane_cost(ap, j + 1) as i32,
+        (costs >> 16) as i32,
         i32::from(ONE_Q),
     );
     let q = ((d0 + j) as i32 * i32::from(ONE_Q) + frac).max(1);
-    Some(q.min(i32::from(u16::MAX)) as u16)
+    q.min(i32::from(u16::MAX)) as u16
 }
 
 /// The right winners' pointers of a steady column ([`match_row`]): at the first one
-/// (`first`) the costs of pixels `b` and `b + 1` (pixel `p` at `(p & 1) half + (p >> 1)`),
-/// else one column on from the last column's `(pe, pd)`: pixel `b + 1` is the last
-/// column's pixel `b + 1`, and pixel `b + 2` the one after the last column's pixel `b` in
-/// its array.
+/// (`last` is `None`) the costs of pixels `b` and `b + 1` (pixel `p` at element
+/// `(p & 1) half + p / 2`), else `step` columns on from the last decided column's `(pe,
+/// pd)`, pixels `b - step` and `b - step + 1`: for an even step both move `step / 2`
+/// elements on in their arrays; for an odd one the parities swap, so pixel `b` is
+/// `(step - 1) / 2` elements past the last pixel `b - step + 1` and pixel `b + 1` is
+/// `(step + 1) / 2` past the last pixel `b - step`.
 #[inline(always)]
 fn right_ptrs(
     rbp: *mut u16,
     half: usize,
     b: usize,
-    first: bool,
-    (pe, pd): (*mut u16, *mut u16),
+    step: usize,
+    last: Option<(*mut u16, *mut u16)>,
 ) -> (*mut u16, *mut u16) {
-    if first {
-        (
+    match last {
+        None => (
             rbp.wrapping_add((b & 1) * half + (b >> 1)),
             rbp.wrapping_add(((b + 1) & 1) * half + ((b + 1) >> 1)),
-        )
-    } else {
-        (pd, pe.wrapping_add(1))
+        ),
+        Some((pe, pd)) if step & 1 == 0 => (pe.wrapping_add(step / 2), pd.wrapping_add(step / 2)),
+        Some((pe, pd)) => (pd.wrapping_add(step / 2), pe.wrapping_add(step / 2 + 1)),
     }
 }
 
@@ -656,7 +618,8 @@ fn match_row(
     // [`column`] call.
     let x_full = dmin + 4 * groups - 1;
     let x_steady = x_full.max(r + 1);
-    let (mut pe, mut pd) = (rbp, rbp);
+    // The right winners' pointers of the last decided steady column.
+    let mut last: Option<(*mut u16, *mut u16)> = None;
     let mut prm = ColumnParams {
         n: groups as u32,
         off: (4 * half) as u32,
@@ -672,65 +635,60 @@ fn match_row(
     // The decided columns `x` (`x - r` a multiple of `step`); after each, the window
     // slides over the `step - 1` columns that are not decided in one call.
     let mut x = r;
+    // Column `x + r`'s and column `x - r - 1`'s words of the row's groups (the latter before
+    // `colsum` at `x = r`: not read there), moved on with `x`.
+    let mut ci = cs.wrapping_add(2 * r * gw + w0);
+    let mut co = cs.wrapping_add(w0).wrapping_sub(gw);
     while x < w - r {
         let ap_ptr = ap.as_mut_ptr();
         // The largest index whose window lies inside the right image (x >= d + r).
         prm.lim = (x - r) as i32 - dmin as i32;
-        let res = if lr_on && x >= x_steady {
+        // The verdict and, for a unique winner, its neighbours' costs.
+        let (res, costs) = if lr_on && x >= x_steady {
             // Every group's right pixels inside: pixels `b - 4k ..= b - 4k + 3`, `b = x -
             // dmin - 3`.
-            // With columns skipped the pointers are set afresh (the last ones are `step`
-            // columns back).
-            let first = x == x_steady || step > 1;
-            (pe, pd) = right_ptrs(rbp, half, x - dmin - 3, first, (pe, pd));
+            // The decided columns are `step` apart.
+            let (pe, pd) = right_ptrs(rbp, half, x - dmin - 3, step, last);
+            last = Some((pe, pd));
             // Safety: checked above for the row: columns `x + r < w` and `x - r - 1`
-            // (`x > r`) of `colsum` (at least `w gw` words) hold words `w0 .. w0 + nw <=
+            // (`x > r`; `ci`, `co`) of `colsum` (at least `w gw` words) hold words `w0 .. w0 + nw <=
             // gw`; `ap` has `nw` words and is not part of `colsum`; `pe`, `pd` point at the
             // costs of pixels `b` and `b + 1` (`(p & 1) half + (p >> 1)`), and for `k <
             // groups` the pixels `b - 4k ..= b - 4k + 3` lie in `0..=x - dmin` (x >= x_full)
             // and below `w <= 2 half`, so their costs (two at a time) and indices (`2 half`
             // elements, `4 half` bytes further) lie inside `rb`'s `4 half` elements.
-            unsafe {
-                column(
-                    ap_ptr,
-                    cs.add((x + r) * gw + w0),
-                    cs.add((x - r - 1) * gw + w0),
-                    pe,
-                    pd,
-                    &prm,
-                )
-            }
+            unsafe { column(ap_ptr, ci, co, pe, pd, &prm) }
         } else {
             let acc = first_columns(ap, cs, gw, w0, x, r, groups);
             if lr_on && x >= dmin {
                 right_first_columns(ap, rb, half, x - dmin, groups, lo, hi);
             }
-            decide(&acc, &prm)
+            match decide(&acc, &prm) {
+                key @ (EDGE | UNIQUE) => (key, 0),
+                key => unique(ap, key, &prm),
+            }
         };
         match res {
             EDGE => edge += 1,
             UNIQUE => uniq += 1,
-            key => match accept(ap, key, &prm, dmin, m.sub) {
-                Some(q) => {
-                    if let Some(o) = disp.get_mut(x) {
-                        *o = q;
-                    }
+            key => {
+                if let Some(o) = disp.get_mut(x) {
+                    *o = sub_pixel(key, costs, dmin, m.sub);
                 }
-                None => uniq += 1,
-            },
+            }
         }
         // The columns up to the next decided one (not past the row's last): the window
         // slides on.
         let n = (step - 1).min(w - r - 1 - x);
         if n > 0 {
             // Safety: checked above for the row: columns `x + 1 + r ..= x + n + r < w` and
-            // `x - r ..= x + n - r - 1` of `colsum` (at least `w gw` words) hold words `w0 ..
+            // `x - r ..= x + n - r - 1` (from `ci`, `co` one column on) of `colsum` (at least `w gw` words) hold words `w0 ..
             // w0 + nw <= gw`; `ap` has `nw` words and is not part of `colsum`.
             unsafe {
                 slide(
                     ap_ptr,
-                    cs.add((x + 1 + r) * gw + w0),
-                    cs.add((x - r) * gw + w0),
+                    ci.wrapping_add(gw),
+                    co.wrapping_add(gw),
                     groups,
                     gw,
                     n,
@@ -738,6 +696,8 @@ fn match_row(
             }
         }
         x += n + 1;
+        ci = ci.wrapping_add((n + 1) * gw);
+        co = co.wrapping_add((n + 1) * gw);
     }
     rep.pixel_disparities += ((w - 2 * r) * (hi + 1 - lo)) as u64;
     rep.rejected_edge += edge;

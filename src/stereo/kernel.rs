@@ -10,9 +10,10 @@
 //! reference, and the QEMU budget checks the firmware's output against the host's to the
 //! bit).
 
-use super::swar::min_u16x2;
+use super::band::lane;
 #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
 use super::swar::{absdiff_u8x4, split_u8x4};
+use super::swar::{min2_u16x2, min_u16x2};
 
 /// The lane minima of a row's words with their first indices, for the words of index
 /// `4k + 3 | 4k + 1` (`be`, `ie`) and of `4k + 2 | 4k` (`bd`, `id`), `k` the group (from
@@ -465,10 +466,8 @@ pub(crate) unsafe fn add_groups(pc: *mut u32, pr: *const u8, l4: u32, n: usize) 
                 "uqsub8 {t}, {t}, {l4}",
                 "orr {t}, {t}, {x}",
                 "ldrd {c0}, {c1}, [{pc}]",
-                "uxtb16 {x}, {t}",
-                "add {c0}, {c0}, {x}",
-                "uxtb16 {x}, {t}, ror #8",
-                "add {c1}, {c1}, {x}",
+                "uxtab16 {c0}, {c0}, {t}",
+                "uxtab16 {c1}, {c1}, {t}, ror #8",
                 "strd {c0}, {c1}, [{pc}], #8",
                 "subs {n}, {n}, #1",
                 "bne 2b",
@@ -568,9 +567,59 @@ pub(crate) fn threshold(best: u32, p: &ColumnParams) -> u32 {
         .min(0x8000)
 }
 
+/// The smallest cost of the row's words outside indices `j - 1 ..= j + 1` (relative to
+/// the row's first group, `1 <= j`, `j + 1 < 4 groups`), and the costs of `j - 1` (low) and
+/// `j + 1` (high); a smallest cost of `0x8000` or more means none. The three lanes are set
+/// to `0xffff` (above every cost) in their words for the scan, and their words restored
+/// after it.
+#[inline(always)]
+pub(crate) fn runner_up(ap: &mut [u32], j: usize) -> (u32, u32) {
+    let ((i0, s0), (i1, s1), (i2, s2)) = (lane(j - 1), lane(j), lane(j + 1));
+    let (Some(&w0), Some(&w2)) = (ap.get(i0), ap.get(i2)) else {
+        return (0, 0);
+    };
+    let costs = ((w0 >> s0) & 0xffff) | (((w2 >> s2) & 0xffff) << 16);
+    // Words may coincide: each is masked after the one before it, and restored in the
+    // reverse order, so the first saved value (the original) is the last written.
+    let mut saved = [0u32; 3];
+    for ((i, sh), o) in [(i0, s0), (i1, s1), (i2, s2)].into_iter().zip(&mut saved) {
+        if let Some(v) = ap.get_mut(i) {
+            *o = *v;
+            *v |= 0xffff << sh;
+        }
+    }
+    let m = ap.iter().fold(u32::MAX, |m, &v| min2_u16x2(m, v));
+    for (i, o) in [i2, i1, i0].into_iter().zip(saved.into_iter().rev()) {
+        if let Some(v) = ap.get_mut(i) {
+            *v = o;
+        }
+    }
+    ((m & 0xffff).min(m >> 16), costs)
+}
+
+/// The exact uniqueness test of a winner `key` (`cost << 16 | index`) that passed
+/// [`decide`]: [`UNIQUE`] when the runner-up more than one index away ([`runner_up`]) is
+/// below the threshold ([`threshold`]), else `key` with the costs of its two neighbours
+/// (index - 1 low, index + 1 high).
+#[inline(never)]
+pub(crate) fn unique(ap: &mut [u32], key: u32, p: &ColumnParams) -> (u32, u32) {
+    let (best, j) = (key >> 16, (key & 0xffff) as usize);
+    if j == 0 {
+        return (UNIQUE, 0);
+    }
+    let (run, costs) = runner_up(ap, j);
+    if run < threshold(best, p) {
+        (UNIQUE, 0)
+    } else {
+        (key, costs)
+    }
+}
+
 /// One column of a row whose groups' right pixels all lie inside the image: the window
 /// slide and its lane minima ([`slide_min`]), the right image's winners
-/// ([`right_groups`], `pe`, `pd`, `p.off`), then [`decide`].
+/// ([`right_groups`], `pe`, `pd`, `p.off`), then [`decide`] and, for a winner that passes
+/// it, [`unique`]: the verdict ([`EDGE`], [`UNIQUE`] or the winner) and the winner's
+/// neighbours' costs.
 ///
 /// # Safety
 /// As [`slide_min`] with the slide and [`right_groups`], with `p.n` groups.
@@ -582,7 +631,7 @@ pub(crate) unsafe fn column(
     pe: *mut u16,
     pd: *mut u16,
     p: &ColumnParams,
-) -> u32 {
+) -> (u32, u32) {
     #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
     {
         // Safety: the caller's contract.
@@ -595,13 +644,24 @@ pub(crate) unsafe fn column(
         let m = unsafe { slide_min::<true>(ap, ci, co, n) };
         // Safety: the caller's contract.
         unsafe { right_groups(ap, pe, pd, p.off as usize, n) };
-        decide(&m, p)
+        match decide(&m, p) {
+            key @ (EDGE | UNIQUE) => (key, 0),
+            // Safety: `ap` points at `2 n` words that nothing else refers to during the
+            // call (the caller's contract).
+            key => unique(
+                unsafe { core::slice::from_raw_parts_mut(ap, 2 * n) },
+                key,
+                p,
+            ),
+        }
     }
 }
 
 /// [`column`] as one Armv7E-M block: the slide loop, the four lane keys and their minimum,
-/// the right winners' loop, then the edge and uniqueness tests, in registers (values live
-/// across a loop go to the stack with one PUSH and come back with one POP).
+/// the right winners' loop, then the edge and uniqueness tests and, for a winner that
+/// passes them, the exact runner-up ([`runner_up`]: the three lanes at and next to the
+/// winner set to `0xffff` for one scan of the words, then restored), in registers (values
+/// live across a loop go to the stack with one PUSH and come back with one POP).
 ///
 /// # Safety
 /// As [`column`].
@@ -614,10 +674,11 @@ unsafe fn column_asm(
     pe: *mut u16,
     pd: *mut u16,
     p: &ColumnParams,
-) -> u32 {
-    let res: u32;
+) -> (u32, u32) {
+    let (res, costs): (u32, u32);
     // Safety: reads `2 n` aligned words at `ci` and `co`, reads and writes `2 n` aligned
-    // words at `ap` and the right winners' pairs at `pe`, `pd` (and `off` bytes further),
+    // words at `ap` (three of their halfwords written and restored by the exact runner-up:
+    // the lanes of indices `j - 1 ..= j + 1 < 4 n`, little-endian) and the right winners' pairs at `pe`, `pd` (and `off` bytes further),
     // reads `p` (the caller's contract); pushes and pops 3 and 5 registers on the stack
     // (balanced). `USUB16` sets the GE flags the `SEL` after it read; no flags are
     // preserved. The registers are fixed (r6 and r7 are reserved) so that the register
@@ -752,9 +813,65 @@ unsafe fn column_asm(
             "uxth r3, r10",
             "sub r3, r3, r12",
             "cmp r3, #2",
-            "bls 30f",
+            "bls 26f",
             "cmp r9, r10, lsr #16",
             "bhi 29f",
+            // The exact runner-up: the halfword of index k lies at byte `8 (k >> 2) + 6 -
+            // 4 (k & 1) - (k & 2)` of the row's words (`band::lane`): j - 1 at r1, j at r2,
+            // j + 1 at r10 (each minus 6).
+            "26:",
+            "ldr r8, [r5]",
+            "sub r0, r0, r8, lsl #3",
+            "lsr r1, r12, #2",
+            "add r1, r0, r1, lsl #3",
+            "and r3, r12, #1",
+            "sub r1, r1, r3, lsl #2",
+            "and r3, r12, #2",
+            "sub r1, r1, r3",
+            "add r4, r12, #1",
+            "lsr r2, r4, #2",
+            "add r2, r0, r2, lsl #3",
+            "and r3, r4, #1",
+            "sub r2, r2, r3, lsl #2",
+            "and r3, r4, #2",
+            "sub r2, r2, r3",
+            "add r4, r12, #2",
+            "lsr r10, r4, #2",
+            "add r10, r0, r10, lsl #3",
+            "and r3, r4, #1",
+            "sub r10, r10, r3, lsl #2",
+            "and r3, r4, #2",
+            "sub r10, r10, r3",
+            // The neighbours' costs, r3 (j - 1 low, j + 1 high); the three lanes masked.
+            "ldrh r3, [r1, #6]",
+            "ldrh r4, [r10, #6]",
+            "pkhbt r3, r3, r4, lsl #16",
+            "movw r4, #0xffff",
+            "strh r4, [r1, #6]",
+            "strh r4, [r2, #6]",
+            "strh r4, [r10, #6]",
+            // The smallest lane of all `2 n` words, r4.
+            "mvn r4, #0",
+            "lsl r8, r8, #1",
+            "27:",
+            "ldr lr, [r0], #4",
+            "usub16 r12, lr, r4",
+            "sel r4, r4, lr",
+            "subs r8, r8, #1",
+            "bne 27b",
+            // Restored: j + 1, j (the winner's cost), j - 1.
+            "lsr lr, r3, #16",
+            "strh lr, [r10, #6]",
+            "lsr lr, r11, #16",
+            "strh lr, [r2, #6]",
+            "strh r3, [r1, #6]",
+            "uxth lr, r4",
+            "cmp lr, r4, lsr #16",
+            "it hi",
+            "lsrhi lr, r4, #16",
+            "mov r1, r3",
+            "cmp lr, r9",
+            "blo 29f",
             "b 30f",
             "28:",
             "mvn r11, #0",
@@ -763,7 +880,7 @@ unsafe fn column_asm(
             "mvn r11, #1",
             "30:",
             inout("r0") ap => _,
-            inout("r1") ci => _,
+            inout("r1") ci => costs,
             inout("r2") co => _,
             inout("r3") pe => _,
             inout("r4") pd => _,
@@ -776,7 +893,7 @@ unsafe fn column_asm(
             out("lr") _,
         );
     }
-    res
+    (res, costs)
 }
 
 #[cfg(test)]
