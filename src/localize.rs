@@ -98,6 +98,9 @@ pub struct Candidate {
     pub score: f32,
     /// Whether the position was re-scored at the fine level.
     pub refined: bool,
+    /// The coarse score of the candidate's window (whatever `refined`): the coarse
+    /// matcher's, or in the fix the CNN's cosine plus the relief stage's correlation.
+    pub coarse: f32,
 }
 
 /// The result of [`localize`].
@@ -576,6 +579,7 @@ pub fn localize<M: Matcher + ?Sized>(
                 y_m: y,
                 score: bs,
                 refined: true,
+                coarse: cs,
             });
             refined_n += 1;
             if best_fine.is_none_or(|b| bs > b.2) {
@@ -588,6 +592,7 @@ pub fn localize<M: Matcher + ?Sized>(
                 y_m: y,
                 score: cs,
                 refined: false,
+                coarse: cs,
             });
         }
     }

@@ -86,6 +86,7 @@ pub fn output_digest(r: &FixReport, scratch: &FixScratch<'_>, n: usize) -> u32 {
                 c.y_m.to_bits(),
                 c.score.to_bits(),
                 c.refined as u32,
+                c.coarse.to_bits(),
             ],
         );
     }

@@ -392,7 +392,7 @@ fn run_once<C: StageClock>(
             Ok(t) => {
                 // The CNN's best peak's refinement, and the best of the others.
                 let (mut first, mut other): (Option<(usize, refine::Refined)>, _) = (None, None);
-                for &(idx, _) in peaks.iter().take(cfg.refine.peaks) {
+                for &(idx, coarse_q15) in peaks.iter().take(cfg.refine.peaks) {
                     let (c, r) = window_cell(idx, cols);
                     let w = (c * step, r * step);
                     let r = refine::refine_window(
@@ -411,6 +411,7 @@ fn run_once<C: StageClock>(
                         y_m,
                         score: r.score,
                         refined: true,
+                        coarse: coarse_q15 as f32 / 32768.0,
                     });
                     if first.is_none() {
                         first = Some((idx, r));
@@ -448,6 +449,7 @@ fn run_once<C: StageClock>(
             y_m,
             score: s as f32 / 32768.0,
             refined: false,
+            coarse: s as f32 / 32768.0,
         });
     }
     let (idx, (col, row), score, path) = chosen;

@@ -212,7 +212,7 @@ pub fn describe_fix(loc: &Localization) -> serde_json::Value {
         "second_score": f.second_score,
         "on_border": f.on_border,
         "candidates": f.candidates.iter().map(|c| serde_json::json!({
-            "x_m": c.x_m, "y_m": c.y_m, "score": c.score, "refined": c.refined
+            "x_m": c.x_m, "y_m": c.y_m, "score": c.score, "refined": c.refined, "coarse": c.coarse
         })).collect::<Vec<_>>(),
         "best_windows": order.iter().take(10).map(|&i| serde_json::json!({
             "index": i, "col": i % loc.window_grid.cols(), "row": i / loc.window_grid.cols(),

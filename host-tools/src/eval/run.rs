@@ -106,6 +106,8 @@ pub struct CandidateResult {
     pub score: f64,
     /// Whether the refinement scored it.
     pub refined: bool,
+    /// The coarse score of its window (CNN cosine plus the relief stage's correlation).
+    pub coarse: f64,
 }
 
 /// What a fix matcher's users read besides the errors.
@@ -324,6 +326,7 @@ fn run_query(
                             error_m: ((at.0 - q.x_m).powi(2) + (at.1 - q.y_m).powi(2)).sqrt(),
                             score: c.score as f64,
                             refined: c.refined,
+                            coarse: c.coarse as f64,
                         }
                     })
                     .collect(),
