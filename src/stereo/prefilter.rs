@@ -320,71 +320,74 @@ unsafe fn sobel_interior(
     #[cfg(not(all(target_arch = "arm", feature = "armv7em-dsp")))]
     let left = n;
     #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-    let left = n % 3;
+    let left = n % 4;
     #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
-    if n >= 3 {
-        let blocks = n / 3;
-        // Safety: reads `3 blocks` bytes at `pa`, `pm`, `pb` and writes as many at `po`
-        // (the caller's contract), advancing each pointer; no stack. The flags are not
-        // declared preserved. `v` rotates through three registers: `x` = v(i), `y` = v(i +
-        // 1), `z` the next, and the clip is `usat` to 0..=255 then the minimum with `2 cap`
-        // (< 255).
+    if n >= 4 {
+        let blocks = n / 4;
+        let capw = (cap as u32) * 0x0001_0001;
+        // `v` of the last block's last even and odd column (`v(i)`, `v(i + 1)` for the
+        // next output `i`), low and high half.
+        let mut last = (v0 as u32) | ((v1 as u32) << 16);
+        // Safety: reads `4 blocks` bytes at `pa`, `pm`, `pb` and writes as many at `po`
+        // (the caller's contract; single LDR/STR, which the Cortex-M4/M7 allow unaligned),
+        // advancing each pointer; no stack. The flags are not declared preserved.
+        //
+        // Four outputs a step, in 16-bit lanes: `ve` = v of the even bytes of the block
+        // (columns j, j + 2), `vo` of the odd ones (j + 1, j + 3), each `a + 2 m + b` <=
+        // 1,020; outputs j - 2 and j (lanes of `u`) are `ve` minus (`last` low, `ve` low),
+        // outputs j - 1 and j + 1 (lanes of `t`) `vo` minus (`last` high, `vo` low), both
+        // within +-1,020; each is clipped to 0..=2 cap as `max(g + cap, 0)` (`USAT16`)
+        // then the minimum with 2 cap (`USUB16`, `SEL`), and the byte order j - 2, j - 1,
+        // j, j + 1 is `u | t << 8` (every lane below 256).
         unsafe {
             core::arch::asm!(
                 "2:",
-                "ldrb {t}, [{pa}], #1",
-                "ldrb {u}, [{pm}], #1",
-                "add {t}, {t}, {u}, lsl #1",
-                "ldrb {u}, [{pb}], #1",
-                "add {z}, {t}, {u}",
-                "sub {t}, {z}, {x}",
-                "add {t}, {t}, {cap}",
-                "usat {t}, #8, {t}",
-                "cmp {t}, {cap2}",
-                "it hi",
-                "movhi {t}, {cap2}",
-                "strb {t}, [{po}], #1",
-                "ldrb {t}, [{pa}], #1",
-                "ldrb {u}, [{pm}], #1",
-                "add {t}, {t}, {u}, lsl #1",
-                "ldrb {u}, [{pb}], #1",
-                "add {x}, {t}, {u}",
-                "sub {t}, {x}, {y}",
-                "add {t}, {t}, {cap}",
-                "usat {t}, #8, {t}",
-                "cmp {t}, {cap2}",
-                "it hi",
-                "movhi {t}, {cap2}",
-                "strb {t}, [{po}], #1",
-                "ldrb {t}, [{pa}], #1",
-                "ldrb {u}, [{pm}], #1",
-                "add {t}, {t}, {u}, lsl #1",
-                "ldrb {u}, [{pb}], #1",
-                "add {y}, {t}, {u}",
-                "sub {t}, {y}, {z}",
-                "add {t}, {t}, {cap}",
-                "usat {t}, #8, {t}",
-                "cmp {t}, {cap2}",
-                "it hi",
-                "movhi {t}, {cap2}",
-                "strb {t}, [{po}], #1",
-                "subs {n}, {n}, #1",
+                "ldr r10, [r1], #4",
+                "uxtb16 r11, r10",
+                "uxtb16 r12, r10, ror #8",
+                "lsl r11, r11, #1",
+                "lsl r12, r12, #1",
+                "ldr r10, [r0], #4",
+                "uxtab16 r11, r11, r10",
+                "uxtab16 r12, r12, r10, ror #8",
+                "ldr r10, [r2], #4",
+                "uxtab16 r11, r11, r10",
+                "uxtab16 r12, r12, r10, ror #8",
+                "ror r10, r12, #16",
+                "pkhtb r10, r10, r5, asr #16",
+                "ssub16 r10, r12, r10",
+                "ror lr, r11, #16",
+                "pkhbt lr, r5, lr",
+                "ssub16 lr, r11, lr",
+                "pkhtb r5, r12, r11, asr #16",
+                "sadd16 r10, r10, r8",
+                "usat16 r10, #15, r10",
+                "usub16 r11, r10, r9",
+                "sel r10, r9, r10",
+                "sadd16 lr, lr, r8",
+                "usat16 lr, #15, lr",
+                "usub16 r11, lr, r9",
+                "sel lr, r9, lr",
+                "orr lr, lr, r10, lsl #8",
+                "str lr, [r3], #4",
+                "subs r4, r4, #1",
                 "bne 2b",
-                pa = inout(reg) pa,
-                pm = inout(reg) pm,
-                pb = inout(reg) pb,
-                po = inout(reg) po,
-                n = inout(reg) blocks => _,
-                x = inout(reg) v0,
-                y = inout(reg) v1,
-                z = out(reg) _,
-                cap = in(reg) cap,
-                cap2 = in(reg) 2 * cap,
-                t = out(reg) _,
-                u = out(reg) _,
+                inout("r0") pa,
+                inout("r1") pm,
+                inout("r2") pb,
+                inout("r3") po,
+                inout("r4") blocks => _,
+                inout("r5") last,
+                in("r8") capw,
+                in("r9") 2 * capw,
+                out("r10") _,
+                out("r11") _,
+                out("r12") _,
+                out("lr") _,
                 options(nostack),
             );
         }
+        (v0, v1) = ((last & 0xffff) as i32, (last >> 16) as i32);
     }
     // Safety: the caller's contract; one element per step for the `left` outputs.
     unsafe {
