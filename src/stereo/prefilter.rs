@@ -45,6 +45,16 @@ pub fn downsample_row_by(frame: &ImageView<'_>, kx: usize, ky: usize, row: usize
             if let (Some(a), Some(b)) = (row_at(0), row_at(1)) {
                 let n4 = w.min(out.len()) / 4;
                 let (head, _) = out.split_at_mut((4 * n4).min(out.len()));
+                // On Armv7E-M the four-pixel steps are one assembly loop (nothing left for
+                // the portable one below).
+                #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+                let head: &mut [u8] = if n4 > 0 && a.len() >= 8 * n4 && b.len() >= 8 * n4 {
+                    // Safety: `8 n4` bytes of `a` and `b` and `4 n4` of `head` (checked).
+                    unsafe { reduce_2x2_asm(a.as_ptr(), b.as_ptr(), head.as_mut_ptr(), n4) };
+                    &mut []
+                } else {
+                    head
+                };
                 for (o, (p, q)) in head
                     .chunks_exact_mut(4)
                     .zip(a.chunks_exact(8).zip(b.chunks_exact(8)))
@@ -218,6 +228,59 @@ fn reduce_words(frame: &ImageView<'_>, kx: usize, ky: usize, row: usize, out: &m
             *o = (s + area / 2).checked_div(area).unwrap_or(0) as u8;
         }
         x0 += n;
+    }
+}
+
+/// The 2 x 2 reduction's four pixels a step ([`downsample_row_by`]) as one Armv7E-M loop:
+/// the byte pairs of a word of each row summed in two `u16` lanes (`UXTB16`, `UXTAB16`),
+/// plus 2, shifted down by 2 (a lane's sum is at most 1,022: the low lane's byte 0 and the
+/// high lane's byte 2 then hold the two pixels, the bits the high lane shifted into the
+/// low one lie above byte 1), and the four bytes packed (`UXTB16`, `ORR`, `PKHBT`).
+///
+/// # Safety
+/// `n >= 1`; `8 n` bytes readable at `pa` and `pb`, `4 n` writable at `po`.
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+#[inline(always)]
+unsafe fn reduce_2x2_asm(pa: *const u8, pb: *const u8, po: *mut u8, n: usize) {
+    // Safety: reads `8 n` bytes at `pa` and `pb` and writes `4 n` at `po` (the caller's
+    // contract; single LDR/STR, which the Cortex-M4/M7 allow unaligned); no stack. The
+    // flags are not declared preserved. 0x00020002 is a Thumb-2 modified immediate.
+    unsafe {
+        core::arch::asm!(
+            "2:",
+            "ldr {t}, [{pa}], #4",
+            "uxtb16 {lo}, {t}",
+            "uxtab16 {lo}, {lo}, {t}, ror #8",
+            "ldr {t}, [{pb}], #4",
+            "uxtab16 {lo}, {lo}, {t}",
+            "uxtab16 {lo}, {lo}, {t}, ror #8",
+            "ldr {t}, [{pa}], #4",
+            "uxtb16 {hi}, {t}",
+            "uxtab16 {hi}, {hi}, {t}, ror #8",
+            "ldr {t}, [{pb}], #4",
+            "uxtab16 {hi}, {hi}, {t}",
+            "uxtab16 {hi}, {hi}, {t}, ror #8",
+            "add {lo}, {lo}, #0x20002",
+            "add {hi}, {hi}, #0x20002",
+            "lsr {lo}, {lo}, #2",
+            "lsr {hi}, {hi}, #2",
+            "uxtb16 {lo}, {lo}",
+            "uxtb16 {hi}, {hi}",
+            "orr {lo}, {lo}, {lo}, lsr #8",
+            "orr {hi}, {hi}, {hi}, lsr #8",
+            "pkhbt {lo}, {lo}, {hi}, lsl #16",
+            "str {lo}, [{po}], #4",
+            "subs {n}, {n}, #1",
+            "bne 2b",
+            pa = inout(reg) pa => _,
+            pb = inout(reg) pb => _,
+            po = inout(reg) po => _,
+            n = inout(reg) n => _,
+            t = out(reg) _,
+            lo = out(reg) _,
+            hi = out(reg) _,
+            options(nostack),
+        );
     }
 }
 
