@@ -850,13 +850,14 @@ unsafe fn column_asm(
             "strh r4, [r1, #6]",
             "strh r4, [r2, #6]",
             "strh r4, [r10, #6]",
-            // The smallest lane of all `2 n` words, r4.
+            // The smallest lane of all `2 n` words, r4, two words a step.
             "mvn r4, #0",
-            "lsl r8, r8, #1",
             "27:",
-            "ldr lr, [r0], #4",
-            "usub16 r12, lr, r4",
+            "ldrd lr, r12, [r0], #8",
+            "usub16 r5, lr, r4",
             "sel r4, r4, lr",
+            "usub16 r5, r12, r4",
+            "sel r4, r4, r12",
             "subs r8, r8, #1",
             "bne 27b",
             // Restored: j + 1, j (the winner's cost), j - 1.
