@@ -51,7 +51,21 @@ fn finish_row_in<const A: bool, const B: bool>(
         below.as_ptr(),
         out.as_mut_ptr(),
     );
-    for x in 0..w {
+    // Columns taken by the loop below: all, or only the first and the last when the
+    // interior went through the assembly loop (Armv7E-M: depths at the working size, both
+    // rows beside, support 3).
+    #[allow(unused_mut)]
+    let mut step = 1;
+    #[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+    if A && B && w >= 3 && fin.shift == 0 && support == 3 && matches!(fin.mode, Output::DepthMm) {
+        // Safety: every row has at least `w` elements and `out` at least `w` (checked
+        // above); the interior is `1 .. w - 1`.
+        let (v, sp) = unsafe { interior_depth_asm(pa, pc, pb, po, w - 2, fin.depth_k) };
+        valid += v;
+        speck += sp;
+        step = w - 1;
+    }
+    for x in (0..w).step_by(step) {
         // Safety: `x < w` and every row has at least `w` elements (checked above).
         let d = unsafe { *pc.add(x) };
         if d == 0 {
@@ -108,6 +122,132 @@ fn finish_row_in<const A: bool, const B: bool>(
     }
     rep.rejected_speckle += u64::from(speck);
     u64::from(valid)
+}
+
+/// The interior pixels `1 ..= n` of [`finish_row_in`] with both rows beside, support 3 and
+/// depths at the working size (shift 0), as one Armv7E-M loop: per pixel with a disparity
+/// `d`, the neighbours within 1 px (`v - lo <= span`, `lo = max(d - 16, 1)`) counted in the
+/// order left, right, above, below, the diagonals, until 3; then the depth `(k + d / 2) /
+/// d`, written where it is 1..=65,535. Returns the pixels written and those the speckle
+/// test rejected (the same as [`supported`] and the loop of [`finish_row_in`]).
+///
+/// # Safety
+/// `n >= 1`; `pa`, `pc`, `pb` point to rows of at least `n + 2` elements, `po` to `n + 1`
+/// writable ones.
+#[cfg(all(target_arch = "arm", feature = "armv7em-dsp"))]
+#[inline(always)]
+unsafe fn interior_depth_asm(
+    pa: *const u16,
+    pc: *const u16,
+    pb: *const u16,
+    po: *mut u16,
+    n: usize,
+    k: u32,
+) -> (u32, u32) {
+    // Byte offsets from a pixel of the row to the same column above, below and out.
+    let oa = (pa as usize).wrapping_sub(pc as usize);
+    let ob = (pb as usize).wrapping_sub(pc as usize);
+    let oo = (po as usize).wrapping_sub(pc as usize);
+    let counts: u32;
+    // Safety: reads `pc[0 ..= n + 1]` and, for pixel `x` in `1 ..= n`, the rows above and
+    // below at `x - 1 ..= x + 1` (through the offsets: plain address arithmetic), writes
+    // `po[x]` (the caller's contract); no stack. The flags are not declared preserved.
+    // `counts`: pixels written in the low half, rejected in the high half (`n < 2^16`:
+    // the working width).
+    unsafe {
+        core::arch::asm!(
+            "movs {cnt}, #0",
+            "2:",
+            "ldrh {d}, [{pc}, #2]!",
+            "cmp {d}, #0",
+            "beq 9f",
+            "subs {lo}, {d}, #16",
+            "it le",
+            "movle {lo}, #1",
+            "add {span}, {d}, #16",
+            "sub {span}, {span}, {lo}",
+            "movs {c}, #0",
+            "ldrh {v}, [{pc}, #-2]",
+            "sub {v}, {v}, {lo}",
+            "cmp {v}, {span}",
+            "it ls",
+            "addls {c}, {c}, #1",
+            "ldrh {v}, [{pc}, #2]",
+            "sub {v}, {v}, {lo}",
+            "cmp {v}, {span}",
+            "it ls",
+            "addls {c}, {c}, #1",
+            "ldrh {v}, [{pc}, {oa}]",
+            "sub {v}, {v}, {lo}",
+            "cmp {v}, {span}",
+            "it ls",
+            "addls {c}, {c}, #1",
+            "cmp {c}, #3",
+            "beq 5f",
+            "ldrh {v}, [{pc}, {ob}]",
+            "sub {v}, {v}, {lo}",
+            "cmp {v}, {span}",
+            "it ls",
+            "addls {c}, {c}, #1",
+            "cmp {c}, #3",
+            "beq 5f",
+            "add {d}, {pc}, {oa}",
+            "ldrh {v}, [{d}, #-2]",
+            "sub {v}, {v}, {lo}",
+            "cmp {v}, {span}",
+            "it ls",
+            "addls {c}, {c}, #1",
+            "ldrh {v}, [{d}, #2]",
+            "sub {v}, {v}, {lo}",
+            "cmp {v}, {span}",
+            "it ls",
+            "addls {c}, {c}, #1",
+            "cmp {c}, #3",
+            "bhs 5f",
+            "add {d}, {pc}, {ob}",
+            "ldrh {v}, [{d}, #-2]",
+            "sub {v}, {v}, {lo}",
+            "cmp {v}, {span}",
+            "it ls",
+            "addls {c}, {c}, #1",
+            "ldrh {v}, [{d}, #2]",
+            "sub {v}, {v}, {lo}",
+            "cmp {v}, {span}",
+            "it ls",
+            "addls {c}, {c}, #1",
+            "cmp {c}, #3",
+            "bhs 5f",
+            "add {cnt}, {cnt}, #0x10000",
+            "b 9f",
+            "5:",
+            "ldrh {d}, [{pc}]",
+            "add {v}, {k}, {d}, lsr #1",
+            "udiv {v}, {v}, {d}",
+            "cmp {v}, #0",
+            "beq 9f",
+            "cmp {v}, #0x10000",
+            "bhs 9f",
+            "strh {v}, [{pc}, {oo}]",
+            "add {cnt}, {cnt}, #1",
+            "9:",
+            "subs {n}, {n}, #1",
+            "bne 2b",
+            pc = inout(reg) pc => _,
+            oa = in(reg) oa,
+            ob = in(reg) ob,
+            oo = in(reg) oo,
+            n = inout(reg) n => _,
+            k = in(reg) k,
+            cnt = out(reg) counts,
+            d = out(reg) _,
+            lo = out(reg) _,
+            span = out(reg) _,
+            c = out(reg) _,
+            v = out(reg) _,
+            options(nostack),
+        );
+    }
+    (counts & 0xffff, counts >> 16)
 }
 
 /// Whether at least `support` (1..=8) of the 8 neighbours of `cur[x]` (disparity `d`, not 0)
