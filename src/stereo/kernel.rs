@@ -902,6 +902,37 @@ mod tests {
     use super::*;
 
     #[test]
+    fn runner_up_skips_the_winner_and_its_neighbours_and_restores_the_words() {
+        // Four groups of pseudo-random lane costs; every winner index in range.
+        let mut seed = 0x2545_f491u32;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed % 2000
+        };
+        for _ in 0..50 {
+            let ap0: [u32; 8] = core::array::from_fn(|_| next() | (next() << 16));
+            let cost = |j: usize| {
+                let (i, s) = lane(j);
+                (ap0[i] >> s) & 0xffff
+            };
+            for j in 1..15 {
+                let mut ap = ap0;
+                let (run, costs) = runner_up(&mut ap, j);
+                let want = (0..16)
+                    .filter(|&i: &usize| i.abs_diff(j) > 1)
+                    .map(cost)
+                    .min()
+                    .unwrap_or(u32::MAX);
+                assert_eq!(run, want, "index {j}");
+                assert_eq!(costs, cost(j - 1) | (cost(j + 1) << 16), "index {j}");
+                assert_eq!(ap, ap0, "index {j}: words restored");
+            }
+        }
+    }
+
+    #[test]
     fn lane_minima_keep_the_first_smallest_of_each_lane() {
         // Three groups; lane costs chosen with ties across groups.
         let mut ap = [
