@@ -310,3 +310,29 @@ fn a_damaged_weight_file_is_refused_by_every_subcommand_that_runs_the_network() 
         );
     }
 }
+
+#[test]
+fn eval_refuses_a_tilt_limit_without_the_terrain_attitude_or_out_of_range() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    let base = ["eval", "--seed", "2", "--queries", "1", "--json", "e.json"];
+    refused(
+        p,
+        &[&base[..], &["--max-tilt", "20"]].concat(),
+        1,
+        &["--max-tilt", "--rover-attitude terrain"],
+    );
+    for bad in ["0", "95", "NaN"] {
+        refused(
+            p,
+            &[
+                &base[..],
+                &["--rover-attitude", "terrain", "--max-tilt", bad],
+            ]
+            .concat(),
+            1,
+            &["--max-tilt", "(0, 90)"],
+        );
+    }
+    assert!(!p.join("e.json").exists());
+}

@@ -35,6 +35,7 @@ fn eval_runs_the_whole_pipeline_and_reports() {
         keep_examples: 1,
         flat_world: false,
         weights: orbfix::nn::model::SHIPPED_WEIGHTS.to_vec(),
+        max_tilt_deg: None,
     };
     let out = run_eval(&cfg, false).unwrap();
     assert_eq!(out.reports.len(), 3);
@@ -176,4 +177,45 @@ fn bad_maps_are_reported_clearly() {
     assert!(matcher_by_name("ncc-zz").is_err());
     assert!(matcher_by_name("ncc-hp-3").is_err());
     assert!(matcher_by_name("ncc-hp2-r20-dist").is_ok());
+}
+
+#[test]
+fn drivable_stops_skip_the_steep_ones_and_keep_their_place_in_the_stream() {
+    use orbfix_host::eval::pipeline::{drivable_queries, make_queries, WHEELBASE_M};
+    use orbfix_host::render::{terrain_pose, tilt_deg};
+    let world = orbfix_host::world::World::new(5);
+    let stream = make_queries(5, 400, Condition::CrossSun);
+    let tilt = |q: &orbfix_host::eval::pipeline::Query| {
+        tilt_deg(&terrain_pose(
+            &world,
+            q.x_m,
+            q.y_m,
+            q.heading_deg,
+            WHEELBASE_M,
+            WHEELBASE_M,
+        ))
+    };
+    // The test zone has steep stops at rover scale: the filter has something to skip.
+    assert!(stream.iter().take(20).any(|q| tilt(q) > 15.0));
+    let kept = drivable_queries(&world, 5, 20, Condition::CrossSun, 15.0).unwrap();
+    assert_eq!(kept.len(), 20);
+    let want: Vec<usize> = stream
+        .iter()
+        .filter(|q| tilt(q) <= 15.0)
+        .take(20)
+        .map(|q| q.id)
+        .collect();
+    assert_eq!(kept.iter().map(|q| q.id).collect::<Vec<_>>(), want);
+    for q in &kept {
+        // The same stop, sun and prior as in the stream.
+        let s = &stream[q.id];
+        assert!(
+            q.x_m == s.x_m
+                && q.prior_x_m == s.prior_x_m
+                && q.sun_map.azimuth_deg == s.sun_map.azimuth_deg
+        );
+    }
+    // Too strict a limit for the stops asked: a clear error, not fewer stops.
+    let e = drivable_queries(&world, 5, 50, Condition::CrossSun, 0.01).unwrap_err();
+    assert!(e.to_string().contains("tilt at most"), "{e}");
 }

@@ -92,6 +92,12 @@ pub struct Args {
     /// attitude, as the rover's inertial unit would measure it.
     #[arg(long, value_enum, default_value_t = RoverAttitude::Level)]
     pub rover_attitude: RoverAttitude,
+    /// With --rover-attitude terrain: only stops where the rover tilts at most this many
+    /// degrees from level (terrain it could drive onto; e.g. 20); the query stream's steeper
+    /// stops are skipped, the kept ones keep their numbers. Without it every stop counts,
+    /// however steep (the world's test zone reaches 40-50 deg at rover scale).
+    #[arg(long, value_name = "DEG")]
+    pub max_tilt: Option<f64>,
     /// Diagnostic: a world with zero relief and the same albedo.
     #[arg(long)]
     pub flat_world: bool,
@@ -129,6 +135,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "--column-stride must be in 1..=16, got {}",
         a.column_stride
     );
+    if let Some(t) = a.max_tilt {
+        anyhow::ensure!(
+            t.is_finite() && t > 0.0 && t < 90.0,
+            "--max-tilt must be an angle in (0, 90) degrees, got {t}"
+        );
+        anyhow::ensure!(
+            a.rover_attitude == RoverAttitude::Terrain,
+            "--max-tilt selects stops by the slope the rover stands on: it needs --rover-attitude terrain"
+        );
+        anyhow::ensure!(
+            a.dem.is_none(),
+            "--max-tilt is for the built-in world's stops, not --dem"
+        );
+    }
     let matchers = parse_matchers(&a.matcher)
         .with_context(|| format!("--matcher (available: {})", MATCHERS.join(", ")))?;
     let cfg = EvalConfig {
@@ -162,6 +182,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         keep_examples: if a.figures.is_some() { a.examples } else { 0 },
         flat_world: a.flat_world,
         weights: load_weights(a.weights.as_deref())?,
+        max_tilt_deg: a.max_tilt,
     };
     let out = match (&a.dem, &a.ortho) {
         (Some(dem), Some(ortho)) => {

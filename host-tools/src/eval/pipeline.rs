@@ -558,6 +558,41 @@ pub fn make_queries(seed: u64, n: usize, condition: Condition) -> Vec<Query> {
     make_queries_in(&zones::zone(zones::Split::Test), 150.0, seed, n, condition)
 }
 
+/// Stops of the query stream drawn for each drivable one, at most: [`drivable_queries`] gives
+/// up beyond `n` times this.
+pub const DRAWS_PER_DRIVABLE: usize = 20;
+
+/// `n` queries of [`make_queries`]'s stream (`seed`, the test zone) at which a rover standing
+/// on the terrain ([`render::terrain_pose`], [`WHEELBASE_M`]) tilts at most `max_tilt_deg`
+/// ([`render::tilt_deg`]): terrain it could drive onto. Steeper stops are skipped; the ones
+/// kept keep their place in the stream (`id`). Fails when fewer than `n` of the first
+/// [`DRAWS_PER_DRIVABLE`] `n` stops qualify.
+pub fn drivable_queries(
+    world: &World,
+    seed: u64,
+    n: usize,
+    condition: Condition,
+    max_tilt_deg: f64,
+) -> anyhow::Result<Vec<Query>> {
+    let draws = n.saturating_mul(DRAWS_PER_DRIVABLE);
+    let kept: Vec<Query> = make_queries(seed, draws, condition)
+        .into_iter()
+        .filter(|q| {
+            let pose =
+                render::terrain_pose(world, q.x_m, q.y_m, q.heading_deg, WHEELBASE_M, WHEELBASE_M);
+            render::tilt_deg(&pose) <= max_tilt_deg
+        })
+        .take(n)
+        .collect();
+    anyhow::ensure!(
+        kept.len() == n,
+        "only {} of the first {draws} stops of seed {seed} tilt at most {max_tilt_deg} deg; \
+         allow a steeper tilt or ask for fewer stops",
+        kept.len()
+    );
+    Ok(kept)
+}
+
 /// `n` queries of `seed` with the truth at least `margin` metres inside `z` (e.g. a DEM's
 /// [`crate::world::dem::DemTerrain::location_zone`]).
 pub fn make_queries_in(

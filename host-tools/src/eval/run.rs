@@ -2,7 +2,9 @@
 //! sharing the renders, into one report per matcher.
 
 use super::metrics::{pair_stats, quantile, recall_at, PairStats};
-use super::pipeline::{make_queries, render_query_full, Condition, PipelineOptions, Query};
+use super::pipeline::{
+    drivable_queries, make_queries, render_query_full, Condition, PipelineOptions, Query,
+};
 use super::{
     fix_config_by_name, fix_config_in, localize_fix, localize_top_down, matcher_by_name,
     Localization, MapRegion, TopDown,
@@ -43,6 +45,9 @@ pub struct EvalConfig {
     pub flat_world: bool,
     /// The weight file (`.ofw`) of the CNN, for the fix matchers and their map products.
     pub weights: Vec<u8>,
+    /// Only stops where the rover, standing on the terrain, tilts at most this many degrees
+    /// ([`super::pipeline::drivable_queries`]; with [`super::pipeline::RoverAttitude::Terrain`]).
+    pub max_tilt_deg: Option<f64>,
 }
 
 /// The result of one query for one matcher.
@@ -394,7 +399,10 @@ pub fn run_eval(cfg: &EvalConfig, progress: bool) -> anyhow::Result<EvalOutput> 
     } else {
         World::new(cfg.seed)
     };
-    let queries = make_queries(cfg.seed, cfg.queries, cfg.condition);
+    let queries = match cfg.max_tilt_deg {
+        Some(t) => drivable_queries(&world, cfg.seed, cfg.queries, cfg.condition, t)?,
+        None => make_queries(cfg.seed, cfg.queries, cfg.condition),
+    };
     run_eval_on(&world, &queries, cfg, progress)
 }
 
@@ -466,6 +474,7 @@ pub fn run_eval_on(
         "camera": cfg.pipeline.render.camera,
         "depth": cfg.pipeline.reprojection.depth_name(),
         "rover_attitude": cfg.pipeline.attitude,
+        "max_tilt_deg": cfg.max_tilt_deg,
         "stereo_baseline_m": cfg.pipeline.stereo_rig.baseline_m,
         "stereo": format!("{:?}", cfg.pipeline.stereo_params()),
     });

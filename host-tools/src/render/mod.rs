@@ -20,7 +20,7 @@ pub mod shadow;
 pub mod stereo;
 pub mod terrain;
 
-pub use pose::{ground_pose, ground_pose_on, terrain_pose};
+pub use pose::{ground_pose, ground_pose_on, terrain_pose, tilt_deg};
 
 use crate::world::micro::MicroRelief;
 use crate::world::{HeightGrid, Rock, World};

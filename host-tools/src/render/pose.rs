@@ -61,6 +61,19 @@ pub fn ground_pose_on(surface: &dyn Surface, x_m: f64, y_m: f64, heading_deg: f6
     )
 }
 
+/// How far the rover of `pose` tilts from level, degrees: the angle between its up axis and
+/// the vertical, from its pitch `p` and roll `r` as [`terrain_pose`] gives them (slopes `tan
+/// p` forward and `tan r` sideways of one plane): `acos(1 / sqrt(1 + tan^2 p + tan^2 r))`.
+pub fn tilt_deg(pose: &RoverPose) -> f64 {
+    let (p, r) = (
+        f64::from(pose.pitch_deg).to_radians(),
+        f64::from(pose.roll_deg).to_radians(),
+    );
+    (1.0 / (1.0 + p.tan().powi(2) + r.tan().powi(2)).sqrt())
+        .acos()
+        .to_degrees()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -107,5 +120,27 @@ mod tests {
         let t = (c.z - 0.2 * c.x) / (0.2 * d.x - d.z);
         let level = h / params.tilt_deg.to_radians().sin();
         assert!(t > 0.0 && (t - level).abs() < 0.25 * level, "{t} {level}");
+    }
+
+    #[test]
+    fn tilt_is_the_angle_of_the_slope_plane() {
+        let pose = |p: f32, r: f32| RoverPose {
+            pitch_deg: p,
+            roll_deg: r,
+            ..RoverPose::level(0.0, 0.0, 0.0, 0.0)
+        };
+        assert!(tilt_deg(&pose(0.0, 0.0)).abs() < 1e-9);
+        assert!((tilt_deg(&pose(10.0, 0.0)) - 10.0).abs() < 1e-4);
+        assert!((tilt_deg(&pose(0.0, -10.0)) - 10.0).abs() < 1e-4);
+        // Both: the plane's steepest slope, sqrt(tan^2 p + tan^2 r), about 14.0 deg.
+        let both = tilt_deg(&pose(10.0, 10.0));
+        let want = (2.0 * 10f64.to_radians().tan().powi(2))
+            .sqrt()
+            .atan()
+            .to_degrees();
+        assert!(
+            (both - want).abs() < 1e-4 && both > 13.9 && both < 14.1,
+            "{both}"
+        );
     }
 }
