@@ -560,7 +560,8 @@ fn right_ptrs(
 /// column; a right pixel sees its candidates in increasing index (one per column), so
 /// keeping strict improvements is the first of its smallest costs too. The runner-up more
 /// than one index from the winner is first bounded by the other lanes' minima (enough to
-/// reject most textureless windows) and only computed exactly when that does not decide.
+/// reject most textureless windows) and only computed exactly when that does not decide
+/// ([`unique`]; on Armv7E-M inside the column's assembly block).
 /// Indices are below 2^15 (at most the working width, [`StereoRig::new`]), so [`RB_NONE`]
 /// is never one.
 // A function of its own (called once per row): its loops get the registers to
