@@ -705,13 +705,17 @@ fn match_row(
     rep.rejected_unique += uniq;
     if lr_on {
         let mut lr = 0u64;
-        for (x, o) in disp.iter_mut().enumerate() {
-            if *o == 0 {
+        // Only the decided columns (`x - r` a multiple of `step`) can hold a disparity yet.
+        let mut x = r;
+        while let Some(o) = disp.get_mut(x).filter(|_| x < w - r) {
+            let v = *o;
+            x += step;
+            if v == 0 {
                 continue;
             }
-            let dl = usize::from((*o + ONE_Q / 2) >> DISPARITY_FRAC_BITS);
+            let dl = usize::from((v + ONE_Q / 2) >> DISPARITY_FRAC_BITS);
             // A right pixel no candidate reached has disparity 0.
-            let ok = x
+            let ok = (x - step)
                 .checked_sub(dl)
                 .and_then(|xr| rb.get(2 * half + (xr & 1) * half + (xr >> 1)))
                 .is_some_and(|&j| {
