@@ -124,50 +124,185 @@ fn expand_in<const IN_PLACE: bool, const S: usize>(
     let t2m = (2 * place.offset as i32 + 1 - m as i32).unsigned_abs() as i32;
     let den_bits = (2 * m).trailing_zeros();
     let two_m = (2 * m) as i32;
+    // The weights of the row's own disparity and its neighbour's, times `2^L`.
+    let (wd, wn) = (
+        ((two_m - t2m).max(0) as u32) << level,
+        (t2m as u32) << level,
+    );
     let flat = u64::from(place.flat_q15);
     let has_nb = !nb.is_empty();
     let mut written = 0u32;
-    let (pc, pn, pm, po) = (cur.as_ptr(), nb.as_ptr(), mask.as_ptr(), out.as_mut_ptr());
-    for x in 0..cur.len() {
-        // Safety: `x < cur.len()`; `out` holds `cur.len() * s` values and `mask` at least
-        // `(cur.len() - 1) * stride + 1` (checked by `expand_row`); `nb` is read only when
-        // it holds `cur.len()` values.
-        let pass = unsafe {
-            if IN_PLACE {
-                *po.add(x * s)
+    // Pointers moved on with the column (no multiply per pixel): the pass mask (`out` in
+    // place or every `stride`-th value of `mask`), the level row, its neighbour, `out`.
+    let step_pass = if IN_PLACE { s } else { stride };
+    let mut po = out.as_mut_ptr();
+    // The pass mask in place is read through `out`'s one pointer.
+    let mut pp = if IN_PLACE {
+        po.cast_const()
+    } else {
+        mask.as_ptr()
+    };
+    let (mut pc, mut pn) = (cur.as_ptr(), nb.as_ptr());
+    for _ in 0..cur.len() {
+        // Safety: at the `x`-th step (`x < cur.len()`) `pc` is `cur`'s element `x`, `po`
+        // `out`'s element `x s` (`out` holds `cur.len() s` values), `pp` `out`'s element `x
+        // s` or `mask`'s `x stride` (at least `(cur.len() - 1) stride + 1` values; all
+        // checked by `expand_row`); `pn` is read only when `nb` holds `cur.len()` values.
+        // The pointers move on with `wrapping_add`, so the last step's (one past the
+        // rows) are never read.
+        let (pass, d) = unsafe { (*pp, *pc) };
+        if pass != 0 && d != 0 {
+            let d = i32::from(d);
+            // Safety: as above.
+            let n = if has_nb { i32::from(unsafe { *pn }) } else { 0 };
+            // Working-size Q4 disparity of this row.
+            let dw = if n != 0 && (n - d).unsigned_abs() <= ONE_Q {
+                // (d 2m + (n - d) 2m|t|) 2^L / 2m = (d wd + n wn) / 2m, rounded (`d`, `n`
+                // and both weights >= 0; below 2^16 2^5 2^2: no overflow).
+                ((d as u32) * wd + (n as u32) * wn + m) >> den_bits
             } else {
-                *pm.add(x * stride)
+                let v = u64::from((d as u32) << level) * flat;
+                ((v + (1 << (ROW_SCALE_BITS - 1))) >> ROW_SCALE_BITS) as u32
+            };
+            let v = output_value(dw, mode, depth_k).unwrap_or(0);
+            // Safety: `po` is `out`'s element `x s` and `x s + s <= out.len()`.
+            unsafe {
+                for c in 0..s {
+                    *po.add(c) = v;
+                }
             }
-        };
-        // Safety: as above.
-        let d = unsafe { *pc.add(x) };
-        if pass == 0 || d == 0 {
-            continue;
+            written += u32::from(v != 0);
         }
-        let d = i32::from(d);
-        // Safety: as above.
-        let n = if has_nb {
-            i32::from(unsafe { *pn.add(x) })
-        } else {
-            0
-        };
-        // Working-size Q4 disparity of this row.
-        let dw = if n != 0 && (n - d).unsigned_abs() <= ONE_Q {
-            // (d 2m + (n - d) 2m|t|) 2^L / 2m, rounded; never negative (|n - d| <= 16).
-            let num = (d * two_m + (n - d) * t2m).max(0) as u32;
-            ((num << level) + m) >> den_bits
-        } else {
-            let v = u64::from((d as u32) << level) * flat;
-            ((v + (1 << (ROW_SCALE_BITS - 1))) >> ROW_SCALE_BITS) as u32
-        };
-        let v = output_value(dw, mode, depth_k).unwrap_or(0);
-        // Safety: `x * s + s <= out.len()`.
-        unsafe {
-            for c in 0..s {
-                *po.add(x * s + c) = v;
-            }
-        }
-        written += u32::from(v != 0);
+        pp = pp.wrapping_add(step_pass);
+        pc = pc.wrapping_add(1);
+        pn = pn.wrapping_add(usize::from(has_nb));
+        po = po.wrapping_add(s);
     }
     written * S as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The per-pixel form `expand_in` replaced (index arithmetic, the interpolation as `d
+    /// 2m + (n - d) 2m|t|`), kept as the reference.
+    #[allow(clippy::too_many_arguments)]
+    fn expand_ref(
+        cur: &[u16],
+        nb: Option<&[u16]>,
+        mask: Option<(&[u16], usize)>,
+        out: &mut [u16],
+        place: &RowPlace,
+        mode: Output,
+        depth_k: u32,
+    ) -> u64 {
+        let s = 1usize << place.level;
+        let m = place.rows.max(1) as i32;
+        let t2m = (2 * place.offset as i32 + 1 - m).abs();
+        let mut written = 0;
+        for x in 0..cur.len() {
+            let pass = match mask {
+                Some((r, stride)) => r[x * stride],
+                None => out[x * s],
+            };
+            let d = i32::from(cur[x]);
+            if pass == 0 || d == 0 {
+                continue;
+            }
+            let n = nb.map_or(0, |r| i32::from(r[x]));
+            let dw = if n != 0 && (n - d).abs() <= 16 {
+                let num = (d * 2 * m + (n - d) * t2m).max(0) as u32;
+                ((num << place.level) + m as u32) / (2 * m as u32)
+            } else {
+                let v = u64::from((d as u32) << place.level) * u64::from(place.flat_q15);
+                ((v + (1 << 14)) >> 15) as u32
+            };
+            let v = output_value(dw, mode, depth_k).unwrap_or(0);
+            out[x * s..x * s + s].fill(v);
+            written += u64::from(v != 0) * s as u64;
+        }
+        written
+    }
+
+    #[test]
+    fn expansion_matches_the_per_pixel_form() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |n: u32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 32) as u32 % n
+        };
+        for case in 0..600 {
+            let level = case % 3;
+            let s = 1usize << level;
+            let rows = s * [1, 2][case % 2];
+            let w = 1 + next(40) as usize;
+            // Disparities with holes, neighbours near them (within 1 px or across an edge).
+            let (mut cur, mut nb) = ([0u16; 40], [0u16; 40]);
+            let (cur, nb) = (&mut cur[..w], &mut nb[..w]);
+            for (c, n) in cur.iter_mut().zip(nb.iter_mut()) {
+                // Disparities with holes, neighbours near them (within 1 px or across an
+                // edge).
+                *c = if next(5) == 0 {
+                    0
+                } else {
+                    1 + next(2000) as u16
+                };
+                *n = match next(4) {
+                    0 => 0,
+                    1 => c.saturating_add(next(200) as u16),
+                    _ => (i32::from(*c) + next(33) as i32 - 16).clamp(0, 65535) as u16,
+                };
+            }
+            let place = RowPlace {
+                level,
+                rows,
+                offset: next(rows as u32) as usize,
+                flat_q15: 20_000 + next(30_000),
+            };
+            let mode = if case % 4 == 3 {
+                Output::DisparityQ4
+            } else {
+                Output::DepthMm
+            };
+            let depth_k = [96_000u32, 1_536_000, 4_000_000_000][case % 3];
+            let with_nb = case % 5 != 0;
+            let in_place = case % 2 == 1;
+            let stride = 1 + next(3) as usize;
+            let mut mask = [0u16; 120];
+            let mask = &mut mask[..w * stride];
+            mask.iter_mut().for_each(|v| *v = next(3) as u16);
+            let mut init = [7u16; 160];
+            let init = &mut init[..w * s];
+            init.iter_mut().step_by(s).for_each(|v| *v = next(3) as u16);
+            let (mut a, mut b) = ([0u16; 160], [0u16; 160]);
+            let (a, b) = (&mut a[..w * s], &mut b[..w * s]);
+            a.copy_from_slice(init);
+            b.copy_from_slice(init);
+            let nbo = with_nb.then_some(&nb[..]);
+            let (got, want) = if in_place {
+                (
+                    expand_row(cur, nbo, Passed::InPlace, a, &place, mode, depth_k),
+                    expand_ref(cur, nbo, None, b, &place, mode, depth_k),
+                )
+            } else {
+                (
+                    expand_row(
+                        cur,
+                        nbo,
+                        Passed::Row(mask, stride),
+                        a,
+                        &place,
+                        mode,
+                        depth_k,
+                    ),
+                    expand_ref(cur, nbo, Some((mask, stride)), b, &place, mode, depth_k),
+                )
+            };
+            assert_eq!(a, b, "case {case}");
+            assert_eq!(got, want, "case {case}");
+        }
+    }
 }
