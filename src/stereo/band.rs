@@ -1008,7 +1008,7 @@ impl<'a> StereoView<'a> {
         );
         // The word scratch of this level: right winners, disparity ring, column sums (a
         // stride of the level's most groups per row), the row's words.
-        let stride = 2 * geo.max_groups();
+        let stride = 2 * rig.scales.max_groups(l);
         let words = &mut *self.words;
         let (rb, rest) = words.split_at_mut((4 * w.div_ceil(2)).min(words.len()));
         let (disp, rest) = rest.split_at_mut((3 * w).min(rest.len()));

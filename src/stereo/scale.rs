@@ -70,6 +70,9 @@ pub struct Scales {
     /// row ([`Scales::row_scale_q15`]).
     s0: f32,
     ds: f32,
+    /// The most groups of four disparities any row of each slot touches
+    /// ([`RowRanges::max_groups`], computed once: the band matcher's column-sum stride).
+    groups: [usize; SLOTS],
 }
 
 /// The first of rows `0..h` from which on `ok` holds for every row down to the last (`h`
@@ -178,6 +181,7 @@ impl Scales {
             near_step,
             s0: st + (0.5 - cy) / f * ct,
             ds: ct / f,
+            groups: geo.map(|g| g.max_groups()),
         };
         me.first = (0..height)
             .find(|&y| {
@@ -308,6 +312,13 @@ impl Scales {
         self.first
     }
 
+    /// The most groups of four disparities any row of slot `l` touches
+    /// ([`RowRanges::max_groups`] of [`Scales::level`]`(l)`, level 0's for a slot that
+    /// does not exist, as there).
+    pub fn max_groups(&self, l: usize) -> usize {
+        self.groups.get(l).copied().unwrap_or(self.groups[0])
+    }
+
     /// The first row of level `l`'s image (its own rows) that sees ground.
     pub fn first_active_of(&self, l: usize) -> usize {
         self.first_of.get(l).copied().unwrap_or(0)
@@ -390,6 +401,22 @@ mod tests {
         assert_eq!(one.rows_of_level(1), (180, 180));
         assert!(s.row_work(0, 180) < one.row_work(0, 180) * 3 / 4);
         assert_eq!(one.row_work(0, 180), one.level(0).row_work(0, 180));
+    }
+
+    #[test]
+    fn the_groups_kept_per_slot_are_each_levels_own() {
+        let cam = CameraParams::default();
+        for pair_rows_m in [0.0, 0.5] {
+            let p = StereoParams {
+                pair_rows_m,
+                ..StereoParams::default()
+            };
+            let s = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |_| true);
+            for l in 0..SLOTS + 1 {
+                assert_eq!(s.max_groups(l), s.level(l).max_groups(), "slot {l}");
+            }
+            assert!(s.max_groups(0) > 0);
+        }
     }
 
     #[test]
