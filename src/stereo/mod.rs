@@ -97,10 +97,10 @@ pub struct StereoParams {
     pub radius_rows_px: u8,
     /// Working-size rows matched in pairs (the frames reduced twice as much down, the
     /// working size's columns and disparities) where the flat ground of a pair spans at most
-    /// this many metres down the image (finite, >= 0; 0: never, the default): the near rows,
-    /// where the top-down image's 0.25 m cells hold several working rows; rows a coarser
-    /// level takes stay there ([`scale`]). 0.25 cuts the stage by about 8 % at the cost of a
-    /// point or two of the fix's accuracy on the development seeds (`docs/stereo.md`).
+    /// this many metres down the image (finite, >= 0; 0: never): the near rows, where the
+    /// top-down image's 0.25 m cells hold several working rows; rows a coarser level takes
+    /// stay there ([`scale`]). Default 0.5 (rows within about 9 m of level ground; 0 until
+    /// 2026-12-05: `docs/stereo.md`, "The stage within 40 M").
     pub pair_rows_m: f32,
     /// Aggregation radius down in the paired rows, rows of pairs (1..=`radius_rows_px`).
     pub pair_radius_rows_px: u8,
@@ -117,7 +117,8 @@ pub struct StereoParams {
     /// (Q4, rounded half up) where both have a disparity and they agree within 1 px.
     pub near_column_step: u8,
     /// Ground span, metres across, of `near_column_step` level columns up to which a row
-    /// takes the near step (finite, >= 0; 0: never).
+    /// takes the near step (finite, >= 0; 0: never). Default 0.5 (every fourth column
+    /// decided within about 20 m; 0.25 until 2026-12-05).
     pub near_column_span_m: f32,
     /// Clip of the Sobel pre-filter, gray levels (1..=63).
     pub prefilter_cap: u8,
@@ -162,22 +163,25 @@ pub struct StereoParams {
     /// `downsample * 2^L` ([`scale`]); 0 matches every row at the working size.
     pub scale_levels: u8,
     /// A row is matched at a coarser level only where a quarter-pixel disparity error there
-    /// moves its flat ground by at most this, metres (finite, >= 0).
+    /// moves its flat ground by at most this, metres (finite, >= 0). Default 0.25 (0.175
+    /// until 2026-12-05).
     pub scale_error_m: f32,
 }
 
 impl Default for StereoParams {
     /// 0.30 m baseline, 2x reduction, rows not reduced further, 7 x 7 window, every other
-    /// column decided (every fourth where four columns span at most 0.25 m), no rows in
-    /// pairs, cap 31, 10 %
+    /// column decided (every fourth where four columns span at most 0.5 m), rows in pairs
+    /// where a pair spans at most 0.5 m, cap 31, 10 %
     /// uniqueness, gap 1 per pixel, left-right check, support 3, 25 sqrt(2) m range, relief
     /// +1 m / -2 m (+0.5 m until 2026-12-04; `docs/stereo.md`, "Relief searched 1 m above
     /// the ground"), above that only 0.5 m + 0.1 m per metre of depth (reaching 1 m at 5 m:
     /// `docs/stereo.md`, "Relief above that grows with depth"), 2 deg, up to two coarser scales where a quarter
-    /// pixel moves the ground by at most 0.175 m (`docs/stereo.md`: the fix's accuracy on
-    /// development seed 5 is the same from 0.125 to 0.35 m, and with every other column
-    /// decided; above 0.175 m the bad-pixel rate of the OpenCV benchmark, counted in
-    /// working-size pixels, passes 1.5x SGBM's with every column decided).
+    /// pixel moves the ground by at most 0.25 m. The last three (0.25 m, pairs at 0.5 m,
+    /// fourth columns at 0.5 m; 0.175 m, none, 0.25 m until 2026-12-05) bring the stage
+    /// within its 40 M instructions on the Cortex-M7 with the fix's accuracy on the
+    /// development seeds 1, 5 and 6 within a stop or two, and the OpenCV benchmark's
+    /// bad-pixel rate (working-size pixels) at 1.38x SGBM's (`docs/stereo.md`, "The stage
+    /// within 40 M").
     fn default() -> Self {
         Self {
             baseline_m: DEFAULT_BASELINE_M,
@@ -185,11 +189,11 @@ impl Default for StereoParams {
             radius_px: 3,
             row_factor: 1,
             radius_rows_px: 3,
-            pair_rows_m: 0.0,
+            pair_rows_m: 0.5,
             pair_radius_rows_px: 2,
             column_step: 2,
             near_column_step: 4,
-            near_column_span_m: 0.25,
+            near_column_span_m: 0.5,
             prefilter_cap: 31,
             uniqueness_pct: 10,
             min_gap_per_px: 1,
@@ -204,7 +208,7 @@ impl Default for StereoParams {
             relief_below_m: 2.0,
             attitude_margin_deg: 2.0,
             scale_levels: 2,
-            scale_error_m: 0.175,
+            scale_error_m: 0.25,
         }
     }
 }
