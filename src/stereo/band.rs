@@ -120,6 +120,8 @@ struct Rings<'b> {
     k: (usize, usize),
     ring: usize,
     cap: u8,
+    /// The ground shear's terms ([`super::geometry::shear_at`]).
+    shear: (i32, i32),
 }
 
 impl<'b> Rings<'b> {
@@ -135,6 +137,7 @@ impl<'b> Rings<'b> {
         k: (usize, usize),
         ring: usize,
         cap: u8,
+        shear: (i32, i32),
     ) -> Self {
         // Lengths were checked by the caller; `min` keeps the splits free of panic paths.
         let (ds_l, rest) = bytes.split_at_mut((3 * w).min(bytes.len()));
@@ -150,6 +153,7 @@ impl<'b> Rings<'b> {
             k,
             ring,
             cap,
+            shear,
         }
     }
 
@@ -183,10 +187,14 @@ impl<'b> Rings<'b> {
         self.ensure_ds(frames, k);
         self.ensure_ds(frames, b);
         let w = self.w;
-        for (ds, f) in self.ds.iter().zip(self.filt.iter_mut()) {
+        for (i, (ds, f)) in self.ds.iter().zip(self.filt.iter_mut()).enumerate() {
             let row = |q: usize| ds.get((q % 3) * w..(q % 3) * w + w).unwrap_or(&[]);
             if let Some(o) = f.get_mut(slot * w..slot * w + w) {
                 super::prefilter(row(a), row(k), row(b), self.cap, o);
+                if i == 1 {
+                    // The right image follows the ground down the window.
+                    super::shear_row(o, super::geometry::shear_at(self.shear, k));
+                }
             }
         }
         if let Some(t) = self.tags.f.get_mut(slot) {
@@ -401,6 +409,9 @@ struct RowMatch {
     sub: SubPixel,
     /// Columns decided: every `step`-th (1..=4, `Scales::column_step`).
     step: usize,
+    /// The row's ground shear, Q8 pixels: added (rounded to Q4) to every disparity found,
+    /// which are residuals until then ([`super::geometry::add_shear`]).
+    shear_q8: i32,
 }
 
 /// Added to the row's aggregated costs of indices outside its range (and, for one pass, to
@@ -703,6 +714,9 @@ fn match_row(
     rep.pixel_disparities += ((w - 2 * r) * (hi + 1 - lo)) as u64;
     rep.rejected_edge += edge;
     rep.rejected_unique += uniq;
+    // Residuals to disparities ([`super::geometry::add_shear`]), at the decided columns.
+    let g4 = super::geometry::shear_q4(m.shear_q8);
+    let shifted = |v: u16| super::geometry::sheared(v, g4);
     if lr_on {
         let mut lr = 0u64;
         // Only the decided columns (`x - r` a multiple of `step`) can hold a disparity yet.
@@ -728,10 +742,22 @@ fn match_row(
             if !ok {
                 *o = 0;
                 lr += 1;
+            } else if g4 != 0 {
+                *o = shifted(v);
             }
         }
         rep.rejected_lr += lr;
+    } else if g4 != 0 {
+        let mut x = r;
+        while let Some(o) = disp.get_mut(x).filter(|_| x < w - r) {
+            if *o != 0 {
+                *o = shifted(*o);
+            }
+            x += step;
+        }
     }
+    // The blend of two decided columns moves with them: the shear could be added to the
+    // decided columns alone.
     if step > 1 {
         super::fill::fill_between(disp, r, w - r, step);
     }
@@ -1005,6 +1031,7 @@ impl<'a> StereoView<'a> {
             rig.scales.reduction(l, usize::from(p.downsample)),
             2 * rv + 2,
             p.prefilter_cap,
+            geo.shear_terms(),
         );
         // The word scratch of this level: right winners, disparity ring, column sums (a
         // stride of the level's most groups per row), the row's words.
@@ -1066,6 +1093,7 @@ impl<'a> StereoView<'a> {
                 lr: p.lr_check,
                 sub: p.subpixel,
                 step: rig.scales.column_step(l, q),
+                shear_q8: geo.shear_q8(q),
             };
             if let Some(drow) = disp.get_mut((q % 3) * w..(q % 3) * w + w) {
                 match_row(&m, colsum, aggw, rb, drow, rep);

@@ -29,6 +29,37 @@
 use super::StereoParams;
 use crate::camera::{Camera, CameraError, CameraParams, RoverPose, View};
 
+/// The shear `a + s v`, Q8 pixels, of row `v` ([`RowRanges::shear_q8`]).
+#[inline]
+pub(crate) fn shear_at((a, s): (i32, i32), v: usize) -> i32 {
+    a.saturating_add(s.saturating_mul(v.min(1 << 15) as i32))
+}
+
+/// Turns a matched row's residual disparities (Q4, 0 = none) into disparities: adds the
+/// row's shear `g_q8` (Q8 pixels, rounded half up to Q4), at least 1 where there was data.
+#[cfg(test)]
+pub(crate) fn add_shear(disp: &mut [u16], g_q8: i32) {
+    let g4 = shear_q4(g_q8);
+    if g4 == 0 {
+        return;
+    }
+    for v in disp.iter_mut().filter(|v| **v != 0) {
+        *v = sheared(*v, g4);
+    }
+}
+
+/// A row's shear `g_q8` (Q8 pixels) rounded half up to Q4.
+#[inline(always)]
+pub(crate) fn shear_q4(g_q8: i32) -> i32 {
+    g_q8.saturating_add(8) >> 4
+}
+
+/// Residual disparity `v` (Q4, not 0) plus shear `g4` (Q4), at least 1.
+#[inline(always)]
+pub(crate) fn sheared(v: u16, g4: i32) -> u16 {
+    (i32::from(v) + g4).max(1).min(i32::from(u16::MAX)) as u16
+}
+
 /// The per-row disparity search ranges of one rig (integer pixels at the working size).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RowRanges {
@@ -58,6 +89,9 @@ pub struct RowRanges {
     /// most the angle between two up vectors `m` of pitch and `m` of roll apart).
     marg: f32,
     radius: usize,
+    /// The windows' shear, Q8 pixels: the right image's row `v` is moved `a + s v` pixels
+    /// right before matching ([`RowRanges::shear_q8`]); `(0, 0)`: none.
+    shear: (i32, i32),
 }
 
 /// The rover's pitch and roll seen from one view's camera, and the uncertainty the row
@@ -145,7 +179,7 @@ impl RowRanges {
         let half = libm::tanf(0.5 * camera.hfov_deg.to_radians());
         let depth_lim = camera.height_m + p.relief_below_m;
         let zmax = libm::sqrtf(p.max_ground_range_m * p.max_ground_range_m + depth_lim * depth_lim);
-        Self {
+        let mut out = Self {
             focal,
             focal_rows: camera.focal_px() / kv,
             cy: 0.5 * camera.height_px as f32 / kv,
@@ -163,7 +197,89 @@ impl RowRanges {
             root: libm::sqrtf(half * half + 1.0),
             marg: 2.0 * libm::sinf(0.5 * theta),
             radius: usize::from(p.radius_px),
+            shear: (0, 0),
+        };
+        if p.ground_shear {
+            out.shear = out.ground_shear();
         }
+        out
+    }
+
+    /// The shear that makes a window follow the flat ground down the image: its disparity
+    /// `f B (b yn + c) / h` grows by `f B b / (h f_rows)` pixels per row, so moving the right
+    /// image's row `v` right by `g(v)`, that line less a constant `K`, leaves the ground at
+    /// one residual disparity `d - g(v)` over the window's rows. `K` keeps every row's
+    /// residual range at least 1 (`(a, s)`, Q8 pixels, `g(v) = a + s v`).
+    fn ground_shear(&self) -> (i32, i32) {
+        let [_, b, c] = self.nom;
+        let s = self.fb * b / (self.h * self.focal_rows);
+        let a0 = self.fb * (b * (0.5 - self.cy) / self.focal_rows + c) / self.h;
+        let mut k = 0.0f32;
+        for v in 0..self.height {
+            if let Some((d_lo, _)) = self.span(v) {
+                k = k.max(a0 + s * v as f32 - d_lo);
+            }
+        }
+        // `as` saturates (NaN: 0); the values are a few hundred pixels at most.
+        (
+            libm::roundf((a0 - (libm::ceilf(k) + 1.0)) * 256.0) as i32,
+            libm::roundf(s * 256.0) as i32,
+        )
+    }
+
+    /// Moves the shear by the whole pixels (0 to 3 further) that make the ranges of rows
+    /// `rows` (the ones this level matches) touch the fewest groups of four disparities,
+    /// the matcher's unit of work ([`super::scale`] calls it once the rows are known).
+    pub(crate) fn fit_shear(&mut self, rows: core::ops::Range<usize>) {
+        if self.shear == (0, 0) {
+            return;
+        }
+        let (_, s_q8) = self.shear;
+        // The constant again, for these rows only: the smallest that keeps their residual
+        // ranges at least 1 (a window whose residual reaches past the image's left edge is
+        // not matched, so a smaller constant loses fewer columns there).
+        let [_, b, c] = self.nom;
+        let a0 = self.fb * (b * (0.5 - self.cy) / self.focal_rows + c) / self.h;
+        let s = s_q8 as f32 / 256.0;
+        let mut k = f32::NEG_INFINITY;
+        for v in rows.clone() {
+            if let Some((d_lo, _)) = self.span(v) {
+                k = k.max(a0 + s * v as f32 - d_lo);
+            }
+        }
+        if k == f32::NEG_INFINITY {
+            return;
+        }
+        let a_q8 = libm::roundf((a0 - (libm::ceilf(k) + 1.0)) * 256.0) as i32;
+        let mut best = (usize::MAX, a_q8);
+        for j in 0..4 {
+            let a = a_q8.saturating_sub(256 * j);
+            let groups: usize = rows
+                .clone()
+                .filter_map(|v| {
+                    let (d_lo, d_hi) = self.span(v)?;
+                    let (lo, hi) = self.widen(d_lo, d_hi, shear_at((a, s_q8), v));
+                    Some(hi / 4 + 1 - lo / 4)
+                })
+                .sum();
+            if groups < best.0 {
+                best = (groups, a);
+            }
+        }
+        self.shear = (best.1, s_q8);
+    }
+
+    /// The right image's shift before matching row `v` of this level, Q8 pixels (moved
+    /// right; 0 without the ground shear): the searched disparities of [`RowRanges::row`]
+    /// are residuals, the disparity is the residual plus this.
+    #[inline]
+    pub fn shear_q8(&self, v: usize) -> i32 {
+        shear_at(self.shear, v)
+    }
+
+    /// `(a, s)` of the shear `a + s v` (Q8 pixels; `(0, 0)`: none), for [`shear_at`].
+    pub(crate) fn shear_terms(&self) -> (i32, i32) {
+        self.shear
     }
 
     /// `(width, height)` of this level's image, pixels.
@@ -212,8 +328,31 @@ impl RowRanges {
     }
 
     /// The disparities searched in row `v` (working size), inclusive, or `None` when the
-    /// row only sees sky (or lies outside the image).
+    /// row only sees sky (or lies outside the image). With the ground shear these are
+    /// residuals: the disparity is the residual plus [`RowRanges::shear_q8`]`(v)`.
     pub fn row(&self, v: usize) -> Option<(usize, usize)> {
+        let (d_lo, d_hi) = self.span(v)?;
+        Some(self.widen(d_lo, d_hi, self.shear_q8(v)))
+    }
+
+    /// The searched range of disparities `d_lo ..= d_hi` less a shear `g_q8` (Q8 pixels),
+    /// widened by a pixel each side, whole pixels.
+    fn widen(&self, d_lo: f32, d_hi: f32, g_q8: i32) -> (usize, usize) {
+        let g = g_q8 as f32 / 256.0;
+        let (d_lo, d_hi) = (d_lo - g, d_hi - g);
+        // Leave the columns a window needs: at most width - 2r - 2.
+        let cap = self.width.saturating_sub(2 * self.radius + 2) as f32;
+        // `max` / `min` rather than `clamp`: no assertion (panic path) in the flight build.
+        let lo = (libm::floorf(d_lo) - 1.0).max(0.0).min(cap);
+        let hi = (libm::ceilf(d_hi) + 1.0)
+            .max(lo + 2.0)
+            .min(cap.max(lo + 2.0));
+        (lo as usize, hi as usize)
+    }
+
+    /// The disparities, pixels, that row `v` can see within the range (before the shear
+    /// and the widening), or `None` when it only sees sky.
+    fn span(&self, v: usize) -> Option<(f32, f32)> {
         if v >= self.height {
             return None;
         }
@@ -242,14 +381,7 @@ impl RowRanges {
         if d_hi < d_lo {
             return None;
         }
-        // Leave the columns a window needs: at most width - 2r - 2.
-        let cap = self.width.saturating_sub(2 * self.radius + 2) as f32;
-        // `max` / `min` rather than `clamp`: no assertion (panic path) in the flight build.
-        let lo = (libm::floorf(d_lo) - 1.0).max(0.0).min(cap);
-        let hi = (libm::ceilf(d_hi) + 1.0)
-            .max(lo + 2.0)
-            .min(cap.max(lo + 2.0));
-        Some((lo as usize, hi as usize))
+        Some((d_lo, d_hi))
     }
 
     /// The first row that is searched (rows above only see sky, or nothing within the
@@ -274,9 +406,19 @@ impl RowRanges {
         out
     }
 
-    /// Largest disparity searched anywhere, pixels.
+    /// Largest disparity searched anywhere, pixels (with the ground shear: the largest
+    /// residual plus its row's shear, rounded up).
     pub fn global_max(&self) -> usize {
-        self.union(0, self.height).map_or(0, |(_, h)| h)
+        (0..self.height)
+            .filter_map(|v| {
+                let (_, hi) = self.row(v)?;
+                let q8 = (hi as i32)
+                    .saturating_mul(256)
+                    .saturating_add(self.shear_q8(v));
+                Some((q8.max(0) as usize).div_ceil(256))
+            })
+            .max()
+            .unwrap_or(0)
     }
 
     /// Disparities in the union of all rows (an upper bound for any band).
@@ -314,9 +456,11 @@ mod tests {
     fn flat_ground_inside_each_range_and_sky_skipped() {
         let cam = CameraParams::default();
         // Rows at the working size (`row_factor` 1); `row_factor` 2 below. Relief +0.5 m.
+        // Disparities, not residuals (the shear: `windows_follow_the_flat_ground`).
         let p = StereoParams {
             row_factor: 1,
             relief_above_m: 0.5,
+            ground_shear: false,
             ..StereoParams::default()
         };
         let r = RowRanges::new(&cam, &p, 0);
@@ -407,8 +551,15 @@ mod tests {
                 assert!(b.row(v).is_none(), "{v}");
                 continue;
             };
-            assert!(lo_a == lo_b && hi_b <= hi_a, "{v}");
-            narrower += usize::from(hi_b < hi_a);
+            // Disparities (the shears may differ by whole pixels: the groups each touches).
+            let abs = |r: &RowRanges, d: usize| d as i32 * 256 + r.shear_q8(v);
+            let (ga, gb) = (a.shear_q8(v), b.shear_q8(v));
+            assert_eq!((ga - gb) % 256, 0, "{v}");
+            assert!(
+                abs(&a, lo_a) == abs(&b, lo_b) && abs(&b, hi_b) <= abs(&a, hi_a),
+                "{v}"
+            );
+            narrower += usize::from(abs(&b, hi_b) < abs(&a, hi_a));
             // A point on the row's centre ray (level rover) standing the bound's height
             // above the ground at its depth lies inside the range.
             let yn = (v as f32 + 0.5 - 90.0) / f;
@@ -418,7 +569,8 @@ mod tests {
             }
             // Depth with dz = h - Z s = min(1, 0.5 + 0.05 Z).
             let z = (1.5 / (s + 0.05)).max(1.0 / s);
-            let d = f * 0.3 / z;
+            // The searched disparities are residuals of the shear.
+            let d = f * 0.3 / z - b.shear_q8(v) as f32 / 256.0;
             if z < 35.0 {
                 assert!(d <= hi_b as f32 - 1.0 + 1e-3, "{v}: {d} {hi_b}");
             }
@@ -458,7 +610,8 @@ mod tests {
                 if z * libm::sqrtf(1.0 + xn * xn + yn * yn) > 35.0 {
                     return None;
                 }
-                let d = f * p.baseline_m / z;
+                // The residual of the row's shear.
+                let d = f * p.baseline_m / z - r.shear_q8(v) as f32 / 256.0;
                 Some(r.row(v).is_some_and(|(lo, hi)| {
                     lo as f32 + 1.0 <= d + 1e-3 && d <= hi as f32 - 1.0 + 1e-3
                 }))
@@ -510,5 +663,119 @@ mod tests {
         // The level rover's ranges miss the ground of a tilted one: the rig must follow
         // the attitude.
         assert!(level_misses > 1_000, "{level_misses}");
+    }
+
+    #[test]
+    fn windows_follow_the_flat_ground() {
+        let cam = CameraParams::default();
+        let on = StereoParams::default();
+        assert!(on.ground_shear);
+        let off = StereoParams {
+            ground_shear: false,
+            ..on
+        };
+        for (level, rows) in [(0u8, 1u32), (0, 2), (1, 2), (2, 2)] {
+            let att = Attitude::level(cam.tilt_deg);
+            let a = RowRanges::with_rows(&cam, &on, level, rows, &att);
+            let b = RowRanges::with_rows(&cam, &off, level, rows, &att);
+            let (w, h) = a.size();
+            let (f, fr) = (a.focal_px(), a.focal_rows);
+            let t = cam.tilt_deg.to_radians();
+            // The level's rows: the flat ground's disparity grows by f B cos t / (h fr)
+            // pixels per row, and the shear by the same (Q8).
+            let slope = f * on.baseline_m * libm::cosf(t) / (cam.height_m * fr);
+            let g = |v: usize| a.shear_q8(v) as f32 / 256.0;
+            assert!(
+                ((g(h - 1) - g(0)) / (h - 1) as f32 - slope).abs() < 0.01,
+                "level {level} x{rows}"
+            );
+            assert_eq!(b.shear_q8(h - 1), 0);
+            // The largest disparity searched is a disparity, not a residual.
+            assert!(
+                a.global_max().abs_diff(b.global_max()) <= 1,
+                "level {level} x{rows}"
+            );
+            let mut residuals = [f32::INFINITY, f32::NEG_INFINITY];
+            let mut checked = 0;
+            for v in 0..h {
+                let (Some((lo, hi)), Some(_)) = (a.row(v), b.row(v)) else {
+                    assert!(a.row(v).is_none() && b.row(v).is_none(), "{v}");
+                    continue;
+                };
+                // Each residual range holds the row's disparities less its shear, with the
+                // widening pixel each side, and within the columns.
+                let (d0, d1) = a.span(v).unwrap();
+                assert_eq!(b.span(v), Some((d0, d1)));
+                let (d0, d1) = (d0 - g(v), d1 - g(v));
+                assert!(
+                    lo as f32 + 1.0 <= d0 + 1e-3 && d1 <= hi as f32 - 1.0 + 1e-3,
+                    "level {level} x{rows} row {v}: {lo}..{hi} vs {d0}..{d1}"
+                );
+                assert!(hi <= w - 2 * usize::from(on.radius_px) - 2 || hi == lo + 2);
+                // The flat ground's residual is one value down the image.
+                let yn = (v as f32 + 0.5 - a.cy) / fr;
+                let s = libm::sinf(t) + yn * libm::cosf(t);
+                if s > 0.0 {
+                    let r = f * on.baseline_m * s / cam.height_m - g(v);
+                    residuals = [residuals[0].min(r), residuals[1].max(r)];
+                    checked += 1;
+                }
+            }
+            assert!(checked > 10, "level {level} x{rows}: {checked}");
+            assert!(
+                residuals[1] - residuals[0] < 0.05,
+                "level {level} x{rows}: {residuals:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn shear_moves_a_row_right_by_a_fraction() {
+        let base: [u8; 8] = [10, 20, 40, 80, 160, 200, 220, 250];
+        // Whole pixels right and left, edges held.
+        let mut r = base;
+        super::super::shear_row(&mut r, 2 * 256);
+        assert_eq!(r, [10, 10, 10, 20, 40, 80, 160, 200]);
+        let mut r = base;
+        super::super::shear_row(&mut r, -256);
+        assert_eq!(r, [20, 40, 80, 160, 200, 220, 250, 250]);
+        // A quarter pixel right: 3/4 of x and 1/4 of x - 1, rounded half up.
+        let mut r = base;
+        super::super::shear_row(&mut r, 64);
+        assert_eq!(r, [10, 18, 35, 70, 140, 190, 215, 243]);
+        // 1.5 pixels left: the mean of x + 1 and x + 2.
+        let mut r = base;
+        super::super::shear_row(&mut r, -384);
+        assert_eq!(r, [30, 60, 120, 180, 210, 235, 250, 250]);
+        // Any shift, any length: the clamped interpolation written out.
+        let mut seed = 12345u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            seed >> 8
+        };
+        for _ in 0..2000 {
+            let w = 1 + (next() % 24) as usize;
+            let g = (next() % 12_000) as i32 - 6000;
+            let row: [u8; 24] = core::array::from_fn(|_| next() as u8);
+            let at = |i: i64| i64::from(row[i.clamp(0, w as i64 - 1) as usize]);
+            let (n, f) = (i64::from(g >> 8), i64::from(g & 0xff));
+            let mut got = row;
+            super::super::shear_row(&mut got[..w], g);
+            for x in 0..w as i64 {
+                let want = ((256 - f) * at(x - n) + f * at(x - n - 1) + 128) >> 8;
+                assert_eq!(i64::from(got[x as usize]), want, "w {w} g {g} x {x}");
+            }
+        }
+        // Nothing for 0 or an empty row.
+        let mut r = base;
+        super::super::shear_row(&mut r, 0);
+        assert_eq!(r, base);
+        super::super::shear_row(&mut [], 300);
+        // And residuals back to disparities: data only, at least 1.
+        let mut d = [0u16, 40, 3, 100];
+        add_shear(&mut d, -64);
+        assert_eq!(d, [0, 36, 1, 96]);
+        add_shear(&mut d, 8 * 16);
+        assert_eq!(d, [0, 44, 9, 104]);
     }
 }

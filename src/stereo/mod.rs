@@ -12,10 +12,14 @@
 //!    `row_factor` times more, [`downsample_row_by`]) and pre-filter with a horizontal
 //!    Sobel clipped to `±prefilter_cap` ([`prefilter`]), robust to the offset between the
 //!    cameras;
-//! 2. cost `|L(x) - R(x - d)|` aggregated over a `(2r + 1) x (2 rv + 1)` box (`r`:
+//! 2. cost `|L(x) - R'(x - d')|` aggregated over a `(2r + 1) x (2 rv + 1)` box (`r`:
 //!    `radius_px`, `rv`: `radius_rows_px`) by running sums
 //!    (a vertical sum per column and disparity, updated by one row in and one row out, then
-//!    a horizontal running sum);
+//!    a horizontal running sum), where `R'` is the right row moved right by the flat
+//!    ground's disparity of its row less a constant (`ground_shear`; Q8, linear
+//!    interpolation, [`shear_row`]) and `d'` the residual disparity: the window follows the
+//!    ground, whose disparity grows down the image, instead of spreading it over the
+//!    window's rows; the residual plus the row's shear is the disparity;
 //! 3. winner-take-all over the row's disparity range ([`geometry`]), rejected when the
 //!    winner lies on the range's edge, when the runner-up (more than one disparity away) is
 //!    not `uniqueness_pct` % worse, or when the gap is below `min_gap_per_px` per window
@@ -61,7 +65,7 @@ mod speckle;
 mod swar;
 
 pub use band::{BandReport, StereoView};
-pub use prefilter::{downsample_row, downsample_row_by, prefilter};
+pub use prefilter::{downsample_row, downsample_row_by, prefilter, shear_row};
 
 use crate::camera::{CameraError, CameraParams, RoverPose, View};
 use crate::image::ImageView;
@@ -131,6 +135,12 @@ pub struct StereoParams {
     pub lr_check: bool,
     /// The sub-pixel fit.
     pub subpixel: SubPixel,
+    /// Windows that follow the flat ground down the image: each right row is moved by the
+    /// flat ground's disparity of its row (less a constant; linear interpolation), so the
+    /// ground, whose disparity grows by `B cos t / h` pixels per row (0.15 for the
+    /// default rig), keeps one disparity over a window's rows instead of spreading over
+    /// `2 rv + 1` of them ([`geometry::RowRanges::shear_q8`]).
+    pub ground_shear: bool,
     /// Speckle rejection: neighbours (of 8) that must agree within 1 px (0: off; 0..=8).
     pub min_support: u8,
     /// Gaps of at most this many working pixels in an output row, between two pixels whose
@@ -199,6 +209,7 @@ impl Default for StereoParams {
             min_gap_per_px: 1,
             lr_check: true,
             subpixel: SubPixel::Parabola,
+            ground_shear: true,
             min_support: 3,
             gap_fill_px: 0,
             max_ground_range_m: 35.355_34,

@@ -360,6 +360,96 @@ pub fn prefilter(above: &[u8], mid: &[u8], below: &[u8], cap: u8, out: &mut [u8]
     }
 }
 
+/// Moves a filtered row `g` pixels right in place (`g` Q8 pixels, either sign): `row[x]`
+/// becomes the row at `x - g`, linearly interpolated (rounded half up) between its two
+/// nearest pixels, pixels past either end taking the end's value. The ground shear of the
+/// right image ([`super::geometry::RowRanges::shear_q8`]).
+pub fn shear_row(row: &mut [u8], g_q8: i32) {
+    let w = row.len();
+    if w == 0 || g_q8 == 0 {
+        return;
+    }
+    let n = g_q8 >> 8;
+    // Weights of pixels `x - n` and `x - n - 1`, 1/256.
+    let f = (g_q8 & 0xff) as u32;
+    let a = 256 - f;
+    let p = row.as_mut_ptr();
+    if n >= 0 {
+        // Right: the pixels read (`x - n - 1 ..= x - n`, four columns `x - n - 1 ..= x - n +
+        // 3` at a time) lie left of the next ones written, so from the right end on every
+        // read is of the row as it was; `x <= n` reads only pixel 0 (held).
+        let n = (n as usize).min(w);
+        let rem = w.saturating_sub(n + 1) % 4;
+        // Safety: for `x` in `n + 1 .. w`, `x - n - 1 >= 0` and `x < w`: all pixels read and
+        // written lie inside `row` (a block at `x` reads `x - n - 1 ..= x - n + 3 <= x + 3 <
+        // w` and writes `x ..= x + 3 < w`), and `p` is its only access here.
+        unsafe {
+            for x in (w - rem..w).rev() {
+                *p.add(x) = lerp(a, f, *p.add(x - n), *p.add(x - n - 1));
+            }
+            let mut x = w - rem;
+            while x >= n + 5 {
+                x -= 4;
+                lerp4(a, f, p.add(x - n), p.add(x - n - 1), p.add(x));
+            }
+        }
+        let first = row.first().copied().unwrap_or(0);
+        row.iter_mut().take(n + 1).for_each(|v| *v = first);
+    } else {
+        // Left by `m = -n` (and right by `f / 256`): pixels `x + m - 1 ..= x + m` lie at or
+        // right of `x`, so from the left end on every read is of the row as it was; `x >= w -
+        // m` reads only pixel `w - 1` (held).
+        let m = (n.unsigned_abs() as usize).min(w);
+        let end = w - m;
+        let blocks = end - end % 4;
+        // Safety: for `x` in `0 .. w - m`, `x + m - 1 >= x >= 0` and `x + m < w`: all pixels
+        // read and written lie inside `row` (a block at `x`, `x + 3 < w - m`, reads `x + m -
+        // 1 ..= x + m + 3 < w`), and `p` is its only access here.
+        unsafe {
+            let mut x = 0;
+            while x < blocks {
+                lerp4(a, f, p.add(x + m), p.add(x + m - 1), p.add(x));
+                x += 4;
+            }
+            for x in blocks..end {
+                *p.add(x) = lerp(a, f, *p.add(x + m), *p.add(x + m - 1));
+            }
+        }
+        let last = row.last().copied().unwrap_or(0);
+        row.iter_mut().skip(end).for_each(|v| *v = last);
+    }
+}
+
+/// `(a s0 + f s1 + 128) / 256` (`a + f = 256`): the linear interpolation of [`shear_row`].
+#[inline(always)]
+fn lerp(a: u32, f: u32, s0: u8, s1: u8) -> u8 {
+    ((a * u32::from(s0) + f * u32::from(s1) + 128) >> 8) as u8
+}
+
+/// [`lerp`] of four pixels at once: `s0`, `s1` the first pixels of the two sources, `out`
+/// the first written (two bytes in each 16-bit lane: `255 * 256 + 128` stays below 2^16).
+///
+/// # Safety
+/// `s0`, `s1` must be readable and `out` writable for four bytes (any alignment); all four
+/// source bytes are read before any is written.
+#[inline(always)]
+unsafe fn lerp4(a: u32, f: u32, s0: *const u8, s1: *const u8, out: *mut u8) {
+    const LO: u32 = 0x00ff_00ff;
+    const HALF: u32 = 0x0080_0080;
+    // Safety: the caller's contract (unaligned reads and write of four bytes). Each byte
+    // position is its own lane, so the byte order does not matter.
+    let (u, v) = unsafe {
+        (
+            core::ptr::read_unaligned(s0.cast::<u32>()),
+            core::ptr::read_unaligned(s1.cast::<u32>()),
+        )
+    };
+    let even = (((u & LO) * a + (v & LO) * f + HALF) >> 8) & LO;
+    let odd = (((u >> 8) & LO) * a + ((v >> 8) & LO) * f + HALF) & !LO;
+    // Safety: as above.
+    unsafe { core::ptr::write_unaligned(out.cast::<u32>(), even | odd) };
+}
+
 /// The interior of [`prefilter`]: `n` outputs at `po`, output `i` the clipped `v(i + 2) -
 /// v(i)` with `v(0) = v0`, `v(1) = v1` and `v(i + 2)` from the bytes at `pa + i`, `pm + i`,
 /// `pb + i` (`a + 2 m + b`), offset by `cap`.

@@ -42,6 +42,8 @@ struct Rings<'b> {
     k: (usize, usize),
     ring: usize,
     cap: u8,
+    /// The ground shear's terms ([`super::geometry::shear_at`]).
+    shear: (i32, i32),
 }
 
 impl Rings<'_> {
@@ -75,10 +77,14 @@ impl Rings<'_> {
         self.ensure_ds(frames, k);
         self.ensure_ds(frames, b);
         let w = self.w;
-        for (ds, f) in self.ds.iter().zip(self.filt.iter_mut()) {
+        for (i, (ds, f)) in self.ds.iter().zip(self.filt.iter_mut()).enumerate() {
             let row = |q: usize| ds.get((q % 3) * w..(q % 3) * w + w).unwrap_or(&[]);
             if let Some(o) = f.get_mut(slot * w..slot * w + w) {
                 super::prefilter(row(a), row(k), row(b), self.cap, o);
+                if i == 1 {
+                    // The right image follows the ground down the window.
+                    super::shear_row(o, super::geometry::shear_at(self.shear, k));
+                }
             }
         }
         if let Some(t) = self.f_tag.get_mut(slot) {
@@ -180,6 +186,8 @@ struct RowMatch {
     lr: bool,
     sub: super::SubPixel,
     step: usize,
+    /// The row's ground shear, Q8 pixels, added (Q4) to the disparities found.
+    shear_q8: i32,
 }
 
 /// Winner-take-all of one row from the column sums into `disp` (Q4, 0 = none).
@@ -307,6 +315,8 @@ fn match_row(
         }
         rep.rejected_lr += lr;
     }
+    // Residuals to disparities, before the blend (as the band matcher: its decided columns).
+    super::geometry::add_shear(disp, m.shear_q8);
     if m.step > 1 {
         // Columns between decided ones: the linear blend of the two decided columns on
         // either side when both agree within 1 px (rounded half up).
@@ -561,6 +571,7 @@ fn run_level(
         k: rig.scales().reduction(l, usize::from(p.downsample)),
         ring,
         cap: p.prefilter_cap,
+        shear: geo.shear_terms(),
     };
     let first = (0..h).find(|&v| geo.row(v).is_some()).unwrap_or(h);
     let c0 = qa.saturating_sub(1).max(first);
@@ -641,6 +652,7 @@ fn run_level(
                 lr: p.lr_check,
                 sub: p.subpixel,
                 step: rig.scales().column_step(l, y),
+                shear_q8: geo.shear_q8(y),
             };
             let drow = &mut disp[(y % 3) * w..(y % 3) * w + w];
             match_row(&m, colsum, agg, rbc, rbd, drow, rep);

@@ -190,6 +190,20 @@ impl Scales {
                 me.level(l).row(q).is_some()
             })
             .unwrap_or(height);
+        // Each slot's shear fitted to the rows it matches (and the windows' rows beyond).
+        for l in 0..SLOTS {
+            let (lo, hi) = (0..height)
+                .filter(|&y| me.level_of_row(y) == l)
+                .fold((usize::MAX, 0), |(a, b), y| (a.min(y), b.max(y + 1)));
+            if lo < hi {
+                let (r, rv) = (me.rows_per(l), me.radius_rows(l));
+                let rows = (lo / r).saturating_sub(rv + 1)..hi.div_ceil(r) + rv + 1;
+                if let Some(g) = me.geo.get_mut(l) {
+                    g.fit_shear(rows);
+                }
+            }
+        }
+        me.groups = me.geo.map(|g| g.max_groups());
         me
     }
 

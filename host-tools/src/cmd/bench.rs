@@ -115,6 +115,9 @@ pub struct Args {
     /// stereo: sub-pixel fit of the winner's disparity.
     #[arg(long, value_enum, default_value_t = SubPixelArg::from(orbfix::stereo::StereoParams::default().subpixel))]
     subpixel: SubPixelArg,
+    /// stereo: windows that follow the flat ground down the image (true/false).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().ground_shear, action = clap::ArgAction::Set)]
+    ground_shear: bool,
     /// stereo: output band of the core, rows.
     #[arg(long, default_value_t = 16)]
     band_rows: usize,
@@ -193,6 +196,7 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         pair_radius_rows_px: args.pair_radius_rows,
         radius_rows_px: args.radius_rows,
         subpixel: args.subpixel.into(),
+        ground_shear: args.ground_shear,
         ..Default::default()
     };
     let opts = orbfix_host::stereo_bench::StereoBenchOptions {

@@ -38,7 +38,7 @@ peak needs over the CNN's best with the fix's own stereo depth), \
 -amN (stereo: pitch and roll margin around the rover's attitude, degrees), -srN (stereo: \
 ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -rrN (stereo: \
 window radius down, rows), -seN (stereo: coarser scale where a quarter pixel moves the ground \
-at most N metres), -spN (stereo sub-pixel fit: 0 parabola, 1 equiangular), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
+at most N metres), -spN (stereo sub-pixel fit: 0 parabola, 1 equiangular), -gsN (stereo: windows follow the flat ground down the image, 1 on, 0 off), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
 cost gap per window pixel), -msN (stereo: support, neighbours of 8), -gfN (stereo: gaps of at most N working pixels between agreeing disparities filled; 0: none), -mdN (largest depth \
 reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks), -csN (stereo: \
 every N-th column decided, 1..2), -ncN (stereo: every N-th column decided in the near rows, \
@@ -107,6 +107,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         if ![
             "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
             "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr", "mx", "gf", "an", "ag", "am",
+            "gs",
         ]
         .contains(&key)
         {
@@ -142,6 +143,13 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
                     _ => bail!(
                     "option '{part}' of matcher '{name}': sp is 0 (parabola) or 1 (equiangular)"
                 ),
+                }
+            }
+            "gs" => {
+                m.ground_shear = match whole(v)? {
+                    0 => false,
+                    1 => true,
+                    _ => bail!("option '{part}' of matcher '{name}': gs is 0 (off) or 1 (on)"),
                 }
             }
             "ds" => {
