@@ -471,8 +471,30 @@ fn near_rows_are_the_coarser_rig_expanded_and_far_rows_the_working_size_rig() {
         (180, 180),
         "no row within 0.125 m at level 2"
     );
-    // Far rows: exactly the working-size rig.
-    assert_eq!(a[..start * 320], b[..start * 320]);
+    // Far rows: the working-size rig's, exactly without the ground shear; with it (the
+    // default) except where a window reaches the left border, whose search follows the
+    // shear's whole-pixel constant, fitted to the rows each rig matches
+    // (`RowRanges::fit_shear`): a few pixels of the first columns.
+    let square = |p: &StereoParams| {
+        disparity(&StereoParams {
+            ground_shear: false,
+            ..*p
+        })
+        .1
+    };
+    assert_eq!(square(&p)[..start * 320], square(&single)[..start * 320]);
+    for y in 0..start {
+        assert_eq!(
+            a[y * 320 + 32..(y + 1) * 320],
+            b[y * 320 + 32..(y + 1) * 320],
+            "row {y}"
+        );
+    }
+    let edge = (0..start * 320).filter(|&i| a[i] != b[i]).count();
+    assert!(
+        edge < start * 320 / 100,
+        "{edge} pixels differ at the left border"
+    );
     // Near rows: the rig on frames reduced by 4, each pixel covering 2 x 2 working pixels,
     // its disparity in working-size pixels; each of a coarse row's two working rows moved
     // towards its own distance (a quarter of the way to the next coarse row's disparity,
