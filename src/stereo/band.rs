@@ -120,7 +120,7 @@ struct Rings<'b> {
     k: (usize, usize),
     ring: usize,
     cap: u8,
-    /// The ground shear's terms ([`super::geometry::shear_at`]).
+    /// The ground shear's terms ([`super::shear::shear_at`]).
     shear: (i32, i32),
 }
 
@@ -193,7 +193,7 @@ impl<'b> Rings<'b> {
                 super::prefilter(row(a), row(k), row(b), self.cap, o);
                 if i == 1 {
                     // The right image follows the ground down the window.
-                    super::shear_row(o, super::geometry::shear_at(self.shear, k));
+                    super::shear_row(o, super::shear::shear_at(self.shear, k));
                 }
             }
         }
@@ -410,7 +410,7 @@ struct RowMatch {
     /// Columns decided: every `step`-th (1..=4, `Scales::column_step`).
     step: usize,
     /// The row's ground shear, Q8 pixels: added (rounded to Q4) to every disparity found,
-    /// which are residuals until then ([`super::geometry::add_shear`]).
+    /// which are residuals until then ([`super::shear::add_shear`]).
     shear_q8: i32,
 }
 
@@ -714,9 +714,9 @@ fn match_row(
     rep.pixel_disparities += ((w - 2 * r) * (hi + 1 - lo)) as u64;
     rep.rejected_edge += edge;
     rep.rejected_unique += uniq;
-    // Residuals to disparities ([`super::geometry::add_shear`]), at the decided columns.
-    let g4 = super::geometry::shear_q4(m.shear_q8);
-    let shifted = |v: u16| super::geometry::sheared(v, g4);
+    // Residuals to disparities ([`super::shear::add_shear`]), at the decided columns.
+    let g4 = super::shear::shear_q4(m.shear_q8);
+    let shifted = |v: u16| super::shear::sheared(v, g4);
     if lr_on {
         let mut lr = 0u64;
         // Only the decided columns (`x - r` a multiple of `step`) can hold a disparity yet.

@@ -26,39 +26,9 @@
 //! frames reduced by `downsample * 2^L` (and `row_factor` times more down), so its focal
 //! length, columns and disparities are `2^L` times smaller, its rows `row_factor 2^L`.
 
+use super::shear::shear_at;
 use super::StereoParams;
 use crate::camera::{Camera, CameraError, CameraParams, RoverPose, View};
-
-/// The shear `a + s v`, Q8 pixels, of row `v` ([`RowRanges::shear_q8`]).
-#[inline]
-pub(crate) fn shear_at((a, s): (i32, i32), v: usize) -> i32 {
-    a.saturating_add(s.saturating_mul(v.min(1 << 15) as i32))
-}
-
-/// Turns a matched row's residual disparities (Q4, 0 = none) into disparities: adds the
-/// row's shear `g_q8` (Q8 pixels, rounded half up to Q4), at least 1 where there was data.
-#[cfg(test)]
-pub(crate) fn add_shear(disp: &mut [u16], g_q8: i32) {
-    let g4 = shear_q4(g_q8);
-    if g4 == 0 {
-        return;
-    }
-    for v in disp.iter_mut().filter(|v| **v != 0) {
-        *v = sheared(*v, g4);
-    }
-}
-
-/// A row's shear `g_q8` (Q8 pixels) rounded half up to Q4.
-#[inline(always)]
-pub(crate) fn shear_q4(g_q8: i32) -> i32 {
-    g_q8.saturating_add(8) >> 4
-}
-
-/// Residual disparity `v` (Q4, not 0) plus shear `g4` (Q4), at least 1.
-#[inline(always)]
-pub(crate) fn sheared(v: u16, g4: i32) -> u16 {
-    (i32::from(v) + g4).max(1).min(i32::from(u16::MAX)) as u16
-}
 
 /// The per-row disparity search ranges of one rig (integer pixels at the working size).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -277,7 +247,7 @@ impl RowRanges {
         shear_at(self.shear, v)
     }
 
-    /// `(a, s)` of the shear `a + s v` (Q8 pixels; `(0, 0)`: none), for [`shear_at`].
+    /// `(a, s)` of the shear `a + s v` (Q8 pixels; `(0, 0)`: none), for [`super::shear::shear_at`].
     pub(crate) fn shear_terms(&self) -> (i32, i32) {
         self.shear
     }
@@ -722,60 +692,8 @@ mod tests {
                 }
             }
             assert!(checked > 10, "level {level} x{rows}: {checked}");
-            assert!(
-                residuals[1] - residuals[0] < 0.05,
-                "level {level} x{rows}: {residuals:?}"
-            );
+            let spread = residuals[1] - residuals[0];
+            assert!(spread < 0.05, "level {level} x{rows}: {residuals:?}");
         }
-    }
-
-    #[test]
-    fn shear_moves_a_row_right_by_a_fraction() {
-        let base: [u8; 8] = [10, 20, 40, 80, 160, 200, 220, 250];
-        // Whole pixels right and left, edges held.
-        let mut r = base;
-        super::super::shear_row(&mut r, 2 * 256);
-        assert_eq!(r, [10, 10, 10, 20, 40, 80, 160, 200]);
-        let mut r = base;
-        super::super::shear_row(&mut r, -256);
-        assert_eq!(r, [20, 40, 80, 160, 200, 220, 250, 250]);
-        // A quarter pixel right: 3/4 of x and 1/4 of x - 1, rounded half up.
-        let mut r = base;
-        super::super::shear_row(&mut r, 64);
-        assert_eq!(r, [10, 18, 35, 70, 140, 190, 215, 243]);
-        // 1.5 pixels left: the mean of x + 1 and x + 2.
-        let mut r = base;
-        super::super::shear_row(&mut r, -384);
-        assert_eq!(r, [30, 60, 120, 180, 210, 235, 250, 250]);
-        // Any shift, any length: the clamped interpolation written out.
-        let mut seed = 12345u32;
-        let mut next = || {
-            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            seed >> 8
-        };
-        for _ in 0..2000 {
-            let w = 1 + (next() % 24) as usize;
-            let g = (next() % 12_000) as i32 - 6000;
-            let row: [u8; 24] = core::array::from_fn(|_| next() as u8);
-            let at = |i: i64| i64::from(row[i.clamp(0, w as i64 - 1) as usize]);
-            let (n, f) = (i64::from(g >> 8), i64::from(g & 0xff));
-            let mut got = row;
-            super::super::shear_row(&mut got[..w], g);
-            for x in 0..w as i64 {
-                let want = ((256 - f) * at(x - n) + f * at(x - n - 1) + 128) >> 8;
-                assert_eq!(i64::from(got[x as usize]), want, "w {w} g {g} x {x}");
-            }
-        }
-        // Nothing for 0 or an empty row.
-        let mut r = base;
-        super::super::shear_row(&mut r, 0);
-        assert_eq!(r, base);
-        super::super::shear_row(&mut [], 300);
-        // And residuals back to disparities: data only, at least 1.
-        let mut d = [0u16, 40, 3, 100];
-        add_shear(&mut d, -64);
-        assert_eq!(d, [0, 36, 1, 96]);
-        add_shear(&mut d, 8 * 16);
-        assert_eq!(d, [0, 44, 9, 104]);
     }
 }

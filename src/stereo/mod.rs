@@ -61,11 +61,13 @@ mod prefilter;
 #[cfg(test)]
 mod reference;
 pub mod scale;
+mod shear;
 mod speckle;
 mod swar;
 
 pub use band::{BandReport, StereoView};
-pub use prefilter::{downsample_row, downsample_row_by, prefilter, shear_row};
+pub use prefilter::{downsample_row, downsample_row_by, prefilter};
+pub use shear::shear_row;
 
 use crate::camera::{CameraError, CameraParams, RoverPose, View};
 use crate::image::ImageView;

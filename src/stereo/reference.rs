@@ -42,7 +42,7 @@ struct Rings<'b> {
     k: (usize, usize),
     ring: usize,
     cap: u8,
-    /// The ground shear's terms ([`super::geometry::shear_at`]).
+    /// The ground shear's terms ([`super::shear::shear_at`]).
     shear: (i32, i32),
 }
 
@@ -83,7 +83,7 @@ impl Rings<'_> {
                 super::prefilter(row(a), row(k), row(b), self.cap, o);
                 if i == 1 {
                     // The right image follows the ground down the window.
-                    super::shear_row(o, super::geometry::shear_at(self.shear, k));
+                    super::shear_row(o, super::shear::shear_at(self.shear, k));
                 }
             }
         }
@@ -316,7 +316,7 @@ fn match_row(
         rep.rejected_lr += lr;
     }
     // Residuals to disparities, before the blend (as the band matcher: its decided columns).
-    super::geometry::add_shear(disp, m.shear_q8);
+    super::shear::add_shear(disp, m.shear_q8);
     if m.step > 1 {
         // Columns between decided ones: the linear blend of the two decided columns on
         // either side when both agree within 1 px (rounded half up).
