@@ -62,6 +62,9 @@ pub struct RowRanges {
     /// The windows' shear, Q8 pixels: the right image's row `v` is moved `a + s v` pixels
     /// right before matching ([`RowRanges::shear_q8`]); `(0, 0)`: none.
     shear: (i32, i32),
+    /// The rows the shear was fitted to ([`RowRanges::fit_shear`]): the level's matched
+    /// rows, the only ones [`RowRanges::max_groups`] sizes for.
+    fitted: Option<(usize, usize)>,
 }
 
 /// The rover's pitch and roll seen from one view's camera, and the uncertainty the row
@@ -168,6 +171,7 @@ impl RowRanges {
             marg: 2.0 * libm::sinf(0.5 * theta),
             radius: usize::from(p.radius_px),
             shear: (0, 0),
+            fitted: None,
         };
         if p.ground_shear {
             out.shear = out.ground_shear();
@@ -237,6 +241,7 @@ impl RowRanges {
             }
         }
         self.shear = (best.1, s_q8);
+        self.fitted = Some((rows.start, rows.end));
     }
 
     /// The right image's shift before matching row `v` of this level, Q8 pixels (moved
@@ -396,10 +401,11 @@ impl RowRanges {
         self.union(0, self.height).map_or(0, |(l, h)| h + 1 - l)
     }
 
-    /// The most groups of four disparities (`4g .. 4g + 4`) any row's range touches: what
-    /// the column sums of a row hold (the band matcher's).
+    /// The most groups of four disparities (`4g .. 4g + 4`) that the range of any row this
+    /// level matches touches: what the column sums of a row hold (the band matcher's).
     pub fn max_groups(&self) -> usize {
-        (0..self.height)
+        let (a, b) = self.fitted.unwrap_or((0, self.height));
+        (a..b.min(self.height))
             .filter_map(|v| self.row(v))
             .map(|(lo, hi)| hi / 4 + 1 - lo / 4)
             .max()

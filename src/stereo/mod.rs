@@ -195,7 +195,7 @@ impl Default for StereoParams {
     /// 0.903 to 0.897, and the OpenCV benchmark's bad-pixel rate (working-size pixels) is
     /// 1.38x SGBM's (`docs/stereo.md`, "The stage within 40 M"). Windows follow the
     /// ground (`ground_shear`, since 2026-12-06): 0.76x SGBM's bad-pixel rate, the stage
-    /// at 39.96 M (`docs/stereo.md`, "Windows that follow the ground").
+    /// at 39.66 M (`docs/stereo.md`, "Windows that follow the ground").
     fn default() -> Self {
         Self {
             baseline_m: DEFAULT_BASELINE_M,
