@@ -185,46 +185,40 @@ impl RowRanges {
     /// one residual disparity `d - g(v)` over the window's rows. `K` keeps every row's
     /// residual range at least 1 (`(a, s)`, Q8 pixels, `g(v) = a + s v`).
     fn ground_shear(&self) -> (i32, i32) {
-        let [_, b, c] = self.nom;
+        let [_, b, _] = self.nom;
         let s = self.fb * b / (self.h * self.focal_rows);
-        let a0 = self.fb * (b * (0.5 - self.cy) / self.focal_rows + c) / self.h;
-        let mut k = 0.0f32;
-        for v in 0..self.height {
-            if let Some((d_lo, _)) = self.span(v) {
-                k = k.max(a0 + s * v as f32 - d_lo);
-            }
-        }
         // `as` saturates (NaN: 0); the values are a few hundred pixels at most.
-        (
-            libm::roundf((a0 - (libm::ceilf(k) + 1.0)) * 256.0) as i32,
-            libm::roundf(s * 256.0) as i32,
-        )
+        let s_q8 = libm::roundf(s * 256.0) as i32;
+        self.shear_offset_q8(s, 0..self.height, 0.0)
+            .map_or((0, 0), |a_q8| (a_q8, s_q8))
+    }
+
+    /// The constant `a` of the shear `a + s v` (slope `s`, pixels per row) for rows `rows`:
+    /// the smallest whole-pixel line below `K` (from `k_floor` up) that keeps each of their
+    /// residual ranges at least 1, Q8 pixels (`None`: no row of `rows` is searched).
+    #[inline(always)]
+    fn shear_offset_q8(&self, s: f32, rows: core::ops::Range<usize>, k_floor: f32) -> Option<i32> {
+        let [_, b, c] = self.nom;
+        let a0 = self.fb * (b * (0.5 - self.cy) / self.focal_rows + c) / self.h;
+        let k = rows
+            .filter_map(|v| Some(a0 + s * v as f32 - self.span(v)?.0))
+            .fold(None, |m: Option<f32>, x| Some(m.map_or(x, |m| m.max(x))))?
+            .max(k_floor);
+        Some(libm::roundf((a0 - (libm::ceilf(k) + 1.0)) * 256.0) as i32)
     }
 
     /// Moves the shear by the whole pixels (0 to 3 further) that make the ranges of rows
     /// `rows` (the ones this level matches) touch the fewest groups of four disparities,
     /// the matcher's unit of work ([`super::scale`] calls it once the rows are known).
     pub(crate) fn fit_shear(&mut self, rows: core::ops::Range<usize>) {
-        if self.shear == (0, 0) {
-            return;
-        }
         let (_, s_q8) = self.shear;
-        // The constant again, for these rows only: the smallest that keeps their residual
-        // ranges at least 1 (a window whose residual reaches past the image's left edge is
-        // not matched, so a smaller constant loses fewer columns there).
-        let [_, b, c] = self.nom;
-        let a0 = self.fb * (b * (0.5 - self.cy) / self.focal_rows + c) / self.h;
+        // The constant again, for these rows only (a window whose residual reaches past the
+        // image's left edge is not matched, so a smaller constant loses fewer columns there).
         let s = s_q8 as f32 / 256.0;
-        let mut k = f32::NEG_INFINITY;
-        for v in rows.clone() {
-            if let Some((d_lo, _)) = self.span(v) {
-                k = k.max(a0 + s * v as f32 - d_lo);
-            }
-        }
-        if k == f32::NEG_INFINITY {
-            return;
-        }
-        let a_q8 = libm::roundf((a0 - (libm::ceilf(k) + 1.0)) * 256.0) as i32;
+        let a_q8 = match self.shear_offset_q8(s, rows.clone(), f32::NEG_INFINITY) {
+            Some(a) if self.shear != (0, 0) => a,
+            _ => return,
+        };
         let mut best = (usize::MAX, a_q8);
         for j in 0..4 {
             let a = a_q8.saturating_sub(256 * j);
