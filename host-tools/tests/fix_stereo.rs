@@ -354,3 +354,55 @@ fn a_view_whose_ranges_outgrow_the_scratch_loses_only_its_depth() {
     assert_eq!((st[1], st[3]), (None, None));
     assert!(out.report.reprojection.valid_cells > 0);
 }
+
+#[test]
+fn flat_fill_takes_only_the_holes_near_the_rover() {
+    let s = stop();
+    let reach_m = 10.0f32;
+    let mut cfg = FixConfig::default();
+    cfg.stereo.flat_fill_m = reach_m;
+    // One view without its right image: its whole sector is a hole of the stereo depth.
+    let mut r = rights(s);
+    r[1] = None;
+    let base = run_stereo(s, FixConfig::default(), r).unwrap();
+    let filled = run_stereo(s, cfg, r).unwrap();
+    let n = cfg.grid.n;
+    let m = cfg.grid.m_per_px;
+    let mut newly = 0usize;
+    for (i, ((&bm, &fm), (&bt, &ft))) in base
+        .mask
+        .iter()
+        .zip(&filled.mask)
+        .zip(base.top.iter().zip(&filled.top))
+        .enumerate()
+    {
+        if bm != 0 {
+            assert_eq!((fm, ft), (bm, bt), "cell {i} had stereo depth and changed");
+        } else if fm != 0 {
+            newly += 1;
+            let dx = ((i % n) as f32 + 0.5 - 0.5 * n as f32) * m;
+            let dy = (0.5 * n as f32 - (i / n) as f32 - 0.5) * m;
+            assert!(
+                dx.hypot(dy) <= reach_m + 0.01,
+                "cell {i} filled {:.2} m from the rover",
+                dx.hypot(dy)
+            );
+        }
+    }
+    // The missing view's quarter of the disc (less what the other views see) is filled.
+    let disc_cells = (core::f32::consts::PI * reach_m * reach_m / (m * m)) as usize;
+    assert!(
+        newly > disc_cells / 8,
+        "{newly} cells filled, disc {disc_cells}"
+    );
+    let valid = |mask: &[u8]| mask.iter().filter(|&&v| v != 0).count();
+    assert_eq!(filled.report.reprojection.valid_cells, valid(&filled.mask));
+    assert_eq!(
+        filled.report.reprojection.valid_cells,
+        base.report.reprojection.valid_cells + newly
+    );
+    // A reach that is not a distance is refused.
+    cfg.stereo.flat_fill_m = f32::NAN;
+    let e = run_stereo(s, cfg, rights(s)).unwrap_err();
+    assert!(e.to_string().contains("stereo.flat_fill_m"), "{e}");
+}
