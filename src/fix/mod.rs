@@ -37,7 +37,6 @@
 pub mod coarse;
 mod config;
 mod digest;
-mod flat_fill;
 pub mod heading;
 pub mod protocol;
 pub mod refine;
@@ -601,41 +600,6 @@ fn embed(
     net.embed(input, arena, out)
 }
 
-/// One band of the flat-ground table carved from the fix's work area ([`lut_scratch`]).
-struct LutScratch<'a> {
-    /// The band's cells.
-    cells: &'a mut [Cell],
-    /// Its overlap taps (at most one per cell).
-    taps: &'a mut [Tap],
-    /// The words of the work area after them.
-    rest: &'a mut [u32],
-}
-
-/// The flat-ground table's scratch for one band of `band_cells` cells at the start of
-/// `work`.
-fn lut_scratch(work: &mut [u32], band_cells: usize) -> Result<LutScratch<'_>, FixError> {
-    let too_small = FixError::ScratchTooSmall { buffer: "work" };
-    let words = |size: usize| (band_cells * size).div_ceil(4) + 1;
-    let (cell_words, tap_words) = (
-        words(core::mem::size_of::<Cell>()),
-        words(core::mem::size_of::<Tap>()),
-    );
-    if work.len() < cell_words + tap_words {
-        return Err(too_small);
-    }
-    let (cw, rest) = work.split_at_mut(cell_words);
-    let (tw, rest) = rest.split_at_mut(tap_words);
-    // Safety: `Cell` and `Tap` are `repr(C)` structs of integers without padding, valid for
-    // every bit pattern, as is `u32`; `align_to_mut` handles the alignment, so viewing the
-    // word buffers as cells and taps never creates an invalid value.
-    let (_, cells, _) = unsafe { cw.align_to_mut::<Cell>() };
-    // Safety: as above.
-    let (_, taps, _) = unsafe { tw.align_to_mut::<Tap>() };
-    let cells = cells.get_mut(..band_cells).ok_or(too_small)?;
-    let taps = taps.get_mut(..band_cells).ok_or(too_small)?;
-    Ok(LutScratch { cells, taps, rest })
-}
-
 /// Stage 1 on flat ground: the table built band by band in `work` (cells, then overlap
 /// taps), each band sampled into its rows of `top` and `mask`.
 #[inline(never)]
@@ -650,8 +614,17 @@ fn reproject_flat<C: StageClock>(
 ) -> Result<ReprojectionSummary, FixError> {
     let n = cfg.grid.n;
     let band_cells = LUT_BAND_ROWS.min(n) * n;
-    let LutScratch { cells, taps, .. } = lut_scratch(work, band_cells)?;
+    let cell_words = band_cells * core::mem::size_of::<Cell>() / 4 + 2;
+    let (cw, tw) = work.split_at_mut(cell_words.min(work.len()));
+    // Safety: `Cell` and `Tap` are `repr(C)` structs of integers without padding, valid for
+    // every bit pattern, as is `u32`; `align_to_mut` handles the alignment, so viewing the
+    // word buffers as cells and taps never creates an invalid value.
+    let (_, cells, _) = unsafe { cw.align_to_mut::<Cell>() };
+    // Safety: as above.
+    let (_, taps, _) = unsafe { tw.align_to_mut::<Tap>() };
     let too_small = FixError::ScratchTooSmall { buffer: "work" };
+    let cells = cells.get_mut(..band_cells).ok_or(too_small)?;
+    let taps = taps.get_mut(..band_cells).ok_or(too_small)?;
     let stride = inputs.params.width_px as usize;
     clock.begin(Stage::Reproject);
     let status = inputs

@@ -42,9 +42,6 @@ pub struct StereoConfig {
     /// Most disparities of any row the scratch is sized for (1..=1024); a rig that needs
     /// more is refused with [`FixError::BadConfig`] `stereo.max_disparities`.
     pub max_disparities: usize,
-    /// Ground distance from the rover, metres, within which top-down cells the stereo
-    /// depth left empty take the flat-ground reprojection ([`super::flat_fill`]; 0: none).
-    pub flat_fill_m: f32,
 }
 
 impl Default for StereoConfig {
@@ -56,7 +53,6 @@ impl Default for StereoConfig {
             band_rows: 30,
             max_width_px: 320,
             max_disparities: 48,
-            flat_fill_m: 0.0,
         }
     }
 }
@@ -73,9 +69,6 @@ impl StereoConfig {
         }
         if !(1..=1024).contains(&self.max_disparities) {
             return bad("stereo.max_disparities");
-        }
-        if !(self.flat_fill_m.is_finite() && self.flat_fill_m >= 0.0) {
-            return bad("stereo.flat_fill_m");
         }
         if !(1..=4).contains(&self.matcher.downsample) {
             return bad("stereo.matcher.downsample");

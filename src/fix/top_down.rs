@@ -6,8 +6,8 @@
 //! implementation of the stage.
 
 use super::{
-    flat_fill, reproject_depth, reproject_flat, stereo_depth, Depth, FixConfig, FixError,
-    FixInputs, ReprojectionSummary, Stage, StageClock, StageOps, LUT_BAND_ROWS,
+    reproject_depth, reproject_flat, stereo_depth, Depth, FixConfig, FixError, FixInputs,
+    ReprojectionSummary, Stage, StageClock, StageOps, LUT_BAND_ROWS,
 };
 use crate::reproject::{range_scratch_len, Cell, ReliefGrid, Tap};
 
@@ -52,8 +52,7 @@ pub fn top_down_buffer_sizes(cfg: &FixConfig) -> Result<TopDownBufferSizes, FixE
         mask: n * n,
         work_words_flat: lut_words,
         work_words_images: range_scratch_len(n),
-        work_words_stereo: (range_scratch_len(n) + stereo_depth::stereo_work_words(&cfg.stereo))
-            .max(flat_fill::flat_fill_words(n)),
+        work_words_stereo: range_scratch_len(n) + stereo_depth::stereo_work_words(&cfg.stereo),
     })
 }
 
@@ -106,13 +105,9 @@ pub fn top_down_relief<C: StageClock>(
                 stereo: None,
             }
         }
-        Depth::Stereo(rights) => {
-            let mut s = stereo_depth::reproject_stereo(
-                inputs, &rights, cfg, work, top, mask, relief, clock, &mut ops,
-            )?;
-            s.valid_cells += flat_fill::fill_holes(inputs, cfg, work, top, mask, clock, &mut ops)?;
-            s
-        }
+        Depth::Stereo(rights) => stereo_depth::reproject_stereo(
+            inputs, &rights, cfg, work, top, mask, relief, clock, &mut ops,
+        )?,
     };
     Ok((summary, ops))
 }

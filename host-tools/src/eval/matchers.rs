@@ -40,8 +40,7 @@ ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -
 window radius down, rows), -seN (stereo: coarser scale where a quarter pixel moves the ground \
 at most N metres), -spN (stereo sub-pixel fit: 0 parabola, 1 equiangular), -gsN (stereo: windows follow the flat ground down the image, 1 on, 0 off), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
 cost gap per window pixel), -msN (stereo: support, neighbours of 8), -gfN (stereo: gaps of at most N working pixels between agreeing disparities filled; 0: none), -mdN (largest depth \
-reprojected, metres), -hfN (stereo: cells without stereo depth within N metres of the rover \
-take the flat-ground reprojection; 0: none), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks), -csN (stereo: \
+reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks), -csN (stereo: \
 every N-th column decided, 1..2), -ncN (stereo: every N-th column decided in the near rows, \
 1..4; -cs1-nc1 decides every column everywhere), -nsN (stereo: ground span of those N columns up to which a row is near, metres; 0: none), -pmN (stereo: working rows \
 matched in pairs where a pair spans at most N metres of ground; 0: none), -prN (stereo: window radius \
@@ -108,7 +107,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         if ![
             "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
             "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr", "mx", "gf", "an", "ag", "am",
-            "gs", "hf",
+            "gs",
         ]
         .contains(&key)
         {
@@ -180,7 +179,6 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "ms" => m.min_support = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "gf" => m.gap_fill_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "md" => cfg.range.max_depth_m = v,
-            "hf" => cfg.stereo.flat_fill_m = v,
             "rw" => cfg.relief.weight = v,
             "rm" => cfg.relief.min_blocks = u16::try_from(whole(v)?).unwrap_or(u16::MAX),
             _ => bail!("unknown option '{part}' of matcher '{name}' (fix options: {FIX_OPTIONS})"),
