@@ -5,7 +5,7 @@ use super::stereo_depth::StereoConfig;
 use super::FixError;
 use crate::localize::MAX_CANDIDATES;
 use crate::map_product::RefinePlane;
-use crate::reproject::{GridSpec, RangeOptions};
+use crate::reproject::{GridSpec, RangeError, RangeOptions};
 
 /// How the position inside the best coarse cells is found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -229,6 +229,13 @@ impl FixConfig {
         self.grid.validate()?;
         self.stereo.validate()?;
         let bad = |field| Err(FixError::BadConfig { field });
+        match self.range.validate() {
+            Ok(()) => {}
+            Err(RangeError::BadDepthScale) => return bad("range.depth_scale_m or range.max_depth_m"),
+            Err(_) => {
+                return bad("range (min_height_m <= max_height_m, fill_min_neighbours <= 8, max_column_stride 1..=16)")
+            }
+        }
         let r = &self.refine;
         if r.peaks == 0 || r.peaks > MAX_CANDIDATES {
             return bad("refine.peaks");

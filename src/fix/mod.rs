@@ -777,4 +777,25 @@ mod tests {
             );
         }
     }
+
+    #[test]
+    fn range_options_the_range_stage_refuses_are_refused_up_front() {
+        let cfg = FixConfig::default();
+        let mut bad = cfg;
+        bad.range.fill_min_neighbours = 9;
+        assert!(
+            matches!(bad.validate(), Err(FixError::BadConfig { field }) if field.starts_with("range ("))
+        );
+        let mut bad = cfg;
+        bad.range.max_depth_m = 0.0;
+        assert!(
+            matches!(bad.validate(), Err(FixError::BadConfig { field }) if field.starts_with("range.depth_scale_m"))
+        );
+        let mut bad = cfg;
+        bad.range.max_column_stride = 0;
+        assert!(bad.validate().is_err());
+        let mut ok = cfg;
+        ok.range.fill_min_neighbours = 8;
+        assert!(ok.validate().is_ok());
+    }
 }

@@ -157,6 +157,15 @@ pub struct RangeOptions {
     pub max_column_stride: u8,
 }
 
+impl RangeOptions {
+    /// Checks the options as [`RangeAccumulator::new`] does: a positive, finite depth unit,
+    /// a positive largest depth, an ordered height band, `fill_min_neighbours` at most 8 and
+    /// `max_column_stride` in 1..=16.
+    pub fn validate(&self) -> Result<(), RangeError> {
+        validate_options(self)
+    }
+}
+
 impl Default for RangeOptions {
     /// Millimetre depths, no depth or height limits, fill cells with >= 5 of 8 neighbours.
     fn default() -> Self {
