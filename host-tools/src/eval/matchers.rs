@@ -37,9 +37,9 @@ peak needs over the CNN's best with the fix's own stereo depth), \
 (stereo: relief above near the rover, metres, growing by N metres per metre of depth up to -ra), \
 -amN (stereo: pitch and roll margin around the rover's attitude, degrees), -srN (stereo: \
 ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -rrN (stereo: \
-window radius down, rows), -seN (stereo: coarser scale where a quarter pixel moves the ground \
+window radius down, rows), -rcN (stereo: window radius across, pixels), -seN (stereo: coarser scale where a quarter pixel moves the ground \
 at most N metres), -spN (stereo sub-pixel fit: 0 parabola, 1 equiangular), -gsN (stereo: windows follow the flat ground down the image, 1 on, 0 off), -uN (stereo: uniqueness, percent), -mgN (stereo: smallest \
-cost gap per window pixel), -msN (stereo: support, neighbours of 8), -gfN (stereo: gaps of at most N working pixels between agreeing disparities filled; 0: none), -mdN (largest depth \
+cost gap per window pixel), -msN (stereo: support, neighbours of 8), -gfN (stereo: gaps of at most N working pixels between agreeing disparities filled; 0: none), -fnN (top-down holes with at least N of 8 neighbours filled; 0: none), -mdN (largest depth \
 reprojected, metres), -rwN (relief stage weight, 0..4; 0: off), -rmN (relief: fewest blocks), -csN (stereo: \
 every N-th column decided, 1..2), -ncN (stereo: every N-th column decided in the near rows, \
 1..4; -cs1-nc1 decides every column everywhere), -nsN (stereo: ground span of those N columns up to which a row is near, metres; 0: none), -pmN (stereo: working rows \
@@ -107,7 +107,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         if ![
             "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
             "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr", "mx", "gf", "an", "ag", "am",
-            "gs",
+            "gs", "rc", "fn",
         ]
         .contains(&key)
         {
@@ -172,6 +172,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "mx" => cfg.stereo.max_disparities = whole(v)? as usize,
             "pr" => m.pair_radius_rows_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "rf" => m.row_factor = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
+            "rc" => m.radius_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "rr" => m.radius_rows_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             // Out of u8 range: u8::MAX, refused below by the rig's check.
             "u" => m.uniqueness_pct = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
@@ -179,6 +180,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "ms" => m.min_support = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "gf" => m.gap_fill_px = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "md" => cfg.range.max_depth_m = v,
+            "fn" => cfg.range.fill_min_neighbours = u8::try_from(whole(v)?).unwrap_or(u8::MAX),
             "rw" => cfg.relief.weight = v,
             "rm" => cfg.relief.min_blocks = u16::try_from(whole(v)?).unwrap_or(u16::MAX),
             _ => bail!("unknown option '{part}' of matcher '{name}' (fix options: {FIX_OPTIONS})"),
@@ -315,6 +317,9 @@ mod tests {
         assert_eq!(c.stereo.matcher.min_support, 4);
         assert_eq!(c.stereo.matcher.min_gap_per_px, 2);
         assert_eq!(c.range.max_depth_m, 25.0);
+        let c = fix_config_by_name("fix-rc6-fn3").unwrap();
+        assert_eq!(c.stereo.matcher.radius_px, 6);
+        assert_eq!(c.range.fill_min_neighbours, 3);
         // Options on the other bases too.
         let c = fix_config_by_name("fix-ncc-p4").unwrap();
         assert_eq!((c.refine.mode, c.refine.peaks), (RefineMode::Ncc, 4));
@@ -339,6 +344,8 @@ mod tests {
             ("fix-ms9", "min_support"),
             ("fix-mg17", "min_gap"),
             ("fix-ra5", "relief_above"),
+            ("fix-rc8", "radius_px"),
+            ("fix-fn9", "fill"),
         ] {
             let e = fix_config_checked(name).expect_err(name);
             let msg = format!("{e:#}");
