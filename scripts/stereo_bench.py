@@ -6,7 +6,10 @@ top-down-square masks, the core's disparity), runs OpenCV on every pair (one thr
 prints one markdown table: over the pixels with true disparity inside the 50 m square,
 coverage (share with an estimate), bad > 1 px and bad > 3 px (share of the estimates whose
 error exceeds 1 / 3 px), mean absolute error, the share of all scored pixels with an
-estimate within 1 px, and time per view. Optional --json writes it.
+estimate within 1 px, and time per view. Optional --json writes it. With --by-depth, a
+second table bins the same pixels by true depth (metres along the optical axis): coverage,
+share "good" (depth within 5 % + 0.1 m of the truth), mean absolute error and mean signed
+error (bias) in pixels, per method.
 """
 import argparse
 import json
@@ -31,6 +34,8 @@ def main():
     ap.add_argument("--json", help="write the table as JSON here")
     ap.add_argument("--sgbm-block", type=int, default=5, help="SGBM block size (odd)")
     ap.add_argument("--bm-block", type=int, default=7, help="BM block size (odd, >= 5)")
+    ap.add_argument("--by-depth", action="store_true",
+                    help="also print the table by true depth band (0-5-10-16-24-32 m)")
     args = ap.parse_args()
     ix_path = os.path.join(args.set, "index.json")
     try:
@@ -53,6 +58,9 @@ def main():
     bm.setPreFilterCap(31)
     methods = ["orbfix core", "OpenCV StereoSGBM", "OpenCV StereoBM"]
     acc = {m: dict(n=0, cover=0, bad1=0, bad3=0, abs=0.0, secs=0.0) for m in methods}
+    bands = [(0, 5), (5, 10), (10, 16), (16, 24), (24, 32)]
+    by_depth = {m: {b: dict(n=0, cover=0, good=0, abs=0.0, bias=0.0) for b in bands} for m in methods}
+    fb = ix["focal_px"] * ix["baseline_m"]
     for e in ix["entries"]:
         p = lambda k: os.path.join(args.set, e[k])
         left = cv2.imread(p("left"), cv2.IMREAD_GRAYSCALE)
@@ -78,6 +86,18 @@ def main():
             a["bad3"] += int((err > 3).sum())
             a["abs"] += float(err.sum())
             a["secs"] += secs
+            z = fb / np.maximum(truth, 1e-6)
+            z_est = fb / np.maximum(d, 1e-6)
+            for b in bands:
+                in_b = sel & (z >= b[0]) & (z < b[1])
+                v = in_b & (d > 0)
+                e = d[v] - truth[v]
+                bd = by_depth[name][b]
+                bd["n"] += int(in_b.sum())
+                bd["cover"] += int(v.sum())
+                bd["good"] += int((np.abs(z_est[v] - z[v]) <= 0.05 * z[v] + 0.1).sum())
+                bd["abs"] += float(np.abs(e).sum())
+                bd["bias"] += float(e.sum())
     nviews = len(ix["entries"])
     rows = []
     for m in methods:
@@ -102,9 +122,29 @@ def main():
     ratio = core["bad1"] / sg["bad1"] if sg["bad1"] > 0 else float("inf")
     print()
     print(f"core bad > 1 px / SGBM bad > 1 px: {ratio:.2f} (target <= 1.5)")
+    depth_rows = []
+    if args.by_depth:
+        print()
+        print("By true depth (good: depth within 5 % + 0.1 m of the truth; errors in pixels of "
+              "the working size): coverage / good / mean abs error / bias")
+        print()
+        print("| true depth | " + " | ".join(methods) + " |")
+        print("|---|" + "---|" * len(methods))
+        for b in bands[::-1]:
+            cells = []
+            for m in methods:
+                bd = by_depth[m][b]
+                c = max(bd["cover"], 1)
+                row = dict(method=m, band_m=list(b), coverage=bd["cover"] / max(bd["n"], 1),
+                           good=bd["good"] / c, mae=bd["abs"] / c, bias=bd["bias"] / c)
+                depth_rows.append(row)
+                cells.append(f"{row['coverage']:.3f} / {row['good']:.3f} / {row['mae']:.3f} / "
+                             f"{row['bias']:+.3f}")
+            print(f"| {b[0]}-{b[1]} m | " + " | ".join(cells) + " |")
     if args.json:
         with open(args.json + ".tmp", "w") as f:
-            json.dump(dict(rows=rows, ratio_bad1_core_over_sgbm=ratio, index=ix_path), f, indent=2)
+            json.dump(dict(rows=rows, ratio_bad1_core_over_sgbm=ratio, by_depth=depth_rows,
+                           index=ix_path), f, indent=2)
         os.replace(args.json + ".tmp", args.json)
 
 
