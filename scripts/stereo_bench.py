@@ -68,6 +68,8 @@ def main():
         truth = load16(p("truth"))
         mask = cv2.imread(p("mask"), cv2.IMREAD_GRAYSCALE)
         sel = (truth > 0) & (mask > 0)
+        z = fb / np.maximum(truth, 1e-6)
+        in_band = [sel & (z >= b[0]) & (z < b[1]) for b in bands]
         ests = {"orbfix core": (load16(p("core")), ix["core_ms_per_view"] / 1e3)}
         for name, m in (("OpenCV StereoSGBM", sgbm), ("OpenCV StereoBM", bm)):
             t = time.perf_counter()
@@ -86,10 +88,8 @@ def main():
             a["bad3"] += int((err > 3).sum())
             a["abs"] += float(err.sum())
             a["secs"] += secs
-            z = fb / np.maximum(truth, 1e-6)
             z_est = fb / np.maximum(d, 1e-6)
-            for b in bands:
-                in_b = sel & (z >= b[0]) & (z < b[1])
+            for b, in_b in zip(bands, in_band):
                 v = in_b & (d > 0)
                 e = d[v] - truth[v]
                 bd = by_depth[name][b]

@@ -158,11 +158,25 @@ pub struct RangeOptions {
 }
 
 impl RangeOptions {
-    /// Checks the options as [`RangeAccumulator::new`] does: a positive, finite depth unit,
+    /// The check [`RangeAccumulator::new`] makes: a positive, finite depth unit,
     /// a positive largest depth, an ordered height band, `fill_min_neighbours` at most 8 and
     /// `max_column_stride` in 1..=16.
     pub fn validate(&self) -> Result<(), RangeError> {
-        validate_options(self)
+        if !(self.depth_scale_m.is_finite() && self.depth_scale_m > 0.0)
+            || self.max_depth_m.is_nan()
+            || self.max_depth_m <= 0.0
+        {
+            return Err(RangeError::BadDepthScale);
+        }
+        if self.min_height_m.is_nan()
+            || self.max_height_m.is_nan()
+            || self.min_height_m > self.max_height_m
+            || self.fill_min_neighbours > 8
+            || !(1..=16).contains(&self.max_column_stride)
+        {
+            return Err(RangeError::BadOption);
+        }
+        Ok(())
     }
 }
 
@@ -283,24 +297,6 @@ fn to_q(v: f32) -> Result<i32, RangeError> {
         return Err(RangeError::Overflow);
     }
     Ok(libm::roundf(v) as i32)
-}
-
-fn validate_options(opts: &RangeOptions) -> Result<(), RangeError> {
-    if !(opts.depth_scale_m.is_finite() && opts.depth_scale_m > 0.0)
-        || opts.max_depth_m.is_nan()
-        || opts.max_depth_m <= 0.0
-    {
-        return Err(RangeError::BadDepthScale);
-    }
-    if opts.min_height_m.is_nan()
-        || opts.max_height_m.is_nan()
-        || opts.min_height_m > opts.max_height_m
-        || opts.fill_min_neighbours > 8
-        || !(1..=16).contains(&opts.max_column_stride)
-    {
-        return Err(RangeError::BadOption);
-    }
-    Ok(())
 }
 
 /// Per-pixel limits of one view, in the fixed-point units of [`place_row`].
@@ -673,7 +669,7 @@ impl<'s> RangeAccumulator<'s> {
         grid.validate()?;
         params.validate().map_err(ReprojectError::from)?;
         pose.validate().map_err(ReprojectError::from)?;
-        validate_options(opts)?;
+        opts.validate()?;
         let cells = grid.cells();
         let needed = range_scratch_len(grid.n);
         if scratch.len() != needed {
