@@ -83,6 +83,12 @@ pub struct Args {
     /// (e.g. 0.001: 10 cm at 10 m); 0 = exact depths (millimetre quantized).
     #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::non_negative_f64, default_value_t = 0.0)]
     pub depth_noise_k: f64,
+    /// With --depth truth: the exact depth only at pixels whose 15 x 15 window of the frame
+    /// has a gray-level standard deviation of at least GRAY (e.g. 1): what an ideal stereo
+    /// engine could give at best, nothing in black shadow or on featureless ground. Without
+    /// it the exact depth is everywhere, shadows included.
+    #[arg(long, value_name = "GRAY", value_parser = crate::cmd::num::non_negative_f64)]
+    pub truth_min_texture: Option<f64>,
     /// Range path: largest column stride (1 = every pixel; up to 16: rows near the mast
     /// read every s-th pixel, at most half a cell apart on flat ground; 4 = the fix's default).
     #[arg(long, default_value_t = 4)]
@@ -177,6 +183,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 ..Default::default()
             },
             attitude: a.rover_attitude,
+            truth_min_texture: a.truth_min_texture,
             ..PipelineOptions::default()
         },
         keep_examples: if a.figures.is_some() { a.examples } else { 0 },

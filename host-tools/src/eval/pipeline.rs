@@ -109,6 +109,12 @@ pub struct PipelineOptions {
     pub stereo: orbfix::stereo::StereoParams,
     /// How the rover stands at each stop (level, or on the slope).
     pub attitude: RoverAttitude,
+    /// Exact depth only where the frame has texture to match: the smallest gray-level
+    /// standard deviation of a pixel's 15 x 15 window
+    /// ([`crate::reproject::depth::drop_untextured`]); `None`: the exact depth everywhere.
+    /// Applies to the renderer's exact depth images (range path, and the truth beside the
+    /// stereo path).
+    pub truth_min_texture: Option<f64>,
 }
 
 impl PipelineOptions {
@@ -133,6 +139,7 @@ impl Default for PipelineOptions {
             stereo_rig: render::stereo::StereoRender::default(),
             stereo: orbfix::fix::FixConfig::default().stereo.matcher,
             attitude: RoverAttitude::Level,
+            truth_min_texture: None,
         }
     }
 }
@@ -237,7 +244,8 @@ pub fn observe_raw(
                 seed: n.seed ^ x_m.to_bits().rotate_left(17) ^ y_m.to_bits(),
                 ..n
             });
-            let depths = depth_images(&set, noise)?;
+            let mut depths = depth_images(&set, noise)?;
+            textured_only(&mut depths, &set.views, opts)?;
             Ok(Observation {
                 views: set.views,
                 depths: Some(depths.clone()),
@@ -264,7 +272,8 @@ pub fn observe_raw(
                 &pose,
                 &opts.stereo_params(),
             )?;
-            let truth = depth_images(&set.left, None)?;
+            let mut truth = depth_images(&set.left, None)?;
+            textured_only(&mut truth, &set.left.views, opts)?;
             Ok(Observation {
                 views: set.left.views,
                 depths: Some(depths),
@@ -275,6 +284,25 @@ pub fn observe_raw(
             })
         }
     }
+}
+
+/// Drops the exact depths where the frames have no texture to match, if `opts` asks.
+fn textured_only(
+    depths: &mut [Vec<u16>; 4],
+    frames: &[image::GrayImage; 4],
+    opts: &PipelineOptions,
+) -> anyhow::Result<()> {
+    if let Some(t) = opts.truth_min_texture {
+        for (d, f) in depths.iter_mut().zip(frames) {
+            crate::reproject::depth::drop_untextured(
+                d,
+                f,
+                crate::reproject::depth::TEXTURE_RADIUS_PX,
+                t,
+            )?;
+        }
+    }
+    Ok(())
 }
 
 /// The core's top-down image of an observation (LUT on flat ground, or range with its

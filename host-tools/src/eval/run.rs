@@ -475,6 +475,7 @@ pub fn run_eval_on(
         "depth": cfg.pipeline.reprojection.depth_name(),
         "rover_attitude": cfg.pipeline.attitude,
         "max_tilt_deg": cfg.max_tilt_deg,
+        "truth_min_texture": cfg.pipeline.truth_min_texture,
         "stereo_baseline_m": cfg.pipeline.stereo_rig.baseline_m,
         "stereo": format!("{:?}", cfg.pipeline.stereo_params()),
     });

@@ -75,6 +75,72 @@ pub fn depth_images(set: &ViewSet, noise: Option<StereoNoise>) -> anyhow::Result
     Ok(out)
 }
 
+/// Half-side of the window [`drop_untextured`] measures texture over, frame pixels: 15 x 15,
+/// about the core's 7 x 7 stereo window at its working size (frames halved).
+pub const TEXTURE_RADIUS_PX: usize = 7;
+
+/// Keeps a depth only where the frame has texture to match: every pixel of `depth` whose
+/// `(2 radius + 1)^2` window of `frame` (clipped at the borders) has a gray-level standard
+/// deviation below `min_std` becomes 0 ("no depth"). Exact depth through this is what an
+/// ideal stereo engine could give at best: nothing in black shadow or on featureless ground.
+/// Returns the number of depths dropped.
+pub fn drop_untextured(
+    depth: &mut [u16],
+    frame: &image::GrayImage,
+    radius: usize,
+    min_std: f64,
+) -> anyhow::Result<usize> {
+    let (w, h) = (frame.width() as usize, frame.height() as usize);
+    anyhow::ensure!(
+        depth.len() == w * h,
+        "depth image has {} pixels, its frame {w} x {h} = {}",
+        depth.len(),
+        w * h
+    );
+    anyhow::ensure!(
+        min_std.is_finite() && min_std >= 0.0,
+        "the texture threshold must be a gray-level deviation >= 0, got {min_std}"
+    );
+    // Integral images of the gray levels and their squares, one row and column of zeros
+    // ahead.
+    let (iw, ih) = (w + 1, h + 1);
+    let mut s1 = vec![0u64; iw * ih];
+    let mut s2 = vec![0u64; iw * ih];
+    let px = frame.as_raw();
+    for y in 0..h {
+        let (mut r1, mut r2) = (0u64, 0u64);
+        for x in 0..w {
+            let g = u64::from(px[y * w + x]);
+            r1 += g;
+            r2 += g * g;
+            s1[(y + 1) * iw + x + 1] = s1[y * iw + x + 1] + r1;
+            s2[(y + 1) * iw + x + 1] = s2[y * iw + x + 1] + r2;
+        }
+    }
+    let box_sum = |s: &[u64], x0: usize, y0: usize, x1: usize, y1: usize| {
+        s[y1 * iw + x1] + s[y0 * iw + x0] - s[y0 * iw + x1] - s[y1 * iw + x0]
+    };
+    let mut dropped = 0;
+    for y in 0..h {
+        let (y0, y1) = (y.saturating_sub(radius), (y + radius + 1).min(h));
+        for x in 0..w {
+            let d = &mut depth[y * w + x];
+            if *d == 0 {
+                continue;
+            }
+            let (x0, x1) = (x.saturating_sub(radius), (x + radius + 1).min(w));
+            let n = ((x1 - x0) * (y1 - y0)) as f64;
+            let m = box_sum(&s1, x0, y0, x1, y1) as f64 / n;
+            let var = box_sum(&s2, x0, y0, x1, y1) as f64 / n - m * m;
+            if var.max(0.0).sqrt() < min_std {
+                *d = 0;
+                dropped += 1;
+            }
+        }
+    }
+    Ok(dropped)
+}
+
 /// Depth images of four stereo pairs computed by the core's own matcher
 /// ([`orbfix::stereo::StereoRig`], the same code the fix runs as its `stereo` stage), at
 /// the frames' size: each frame pixel takes the depth of the working-size pixel it lies in,
@@ -139,4 +205,46 @@ pub fn stereo_depth_images(
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod texture_tests {
+    use super::*;
+
+    #[test]
+    fn depth_is_dropped_where_the_frame_is_flat_and_kept_where_it_is_textured() {
+        // 40 x 20: the left half a flat gray (a shadow), the right half a checkerboard.
+        let frame = image::GrayImage::from_fn(40, 20, |x, y| {
+            image::Luma([if x < 20 {
+                30
+            } else if (x + y) % 2 == 0 {
+                100
+            } else {
+                140
+            }])
+        });
+        let mut depth = vec![5000u16; 40 * 20];
+        depth[39] = 0;
+        let dropped = drop_untextured(&mut depth, &frame, 3, 1.0).unwrap();
+        // Columns 0..17 see only the flat half (window of 7 reaches x + 3 < 20).
+        for y in 0..20 {
+            for x in 0..17 {
+                assert_eq!(depth[y * 40 + x], 0, "({x}, {y}) kept in the flat half");
+            }
+            for x in 17..40 {
+                let want = if y == 0 && x == 39 { 0 } else { 5000 };
+                assert_eq!(depth[y * 40 + x], want, "({x}, {y})");
+            }
+        }
+        assert_eq!(dropped, 17 * 20);
+        // Threshold 0 keeps everything; one above any 8-bit deviation (127.5) drops all.
+        let mut all = vec![1u16; 40 * 20];
+        assert_eq!(drop_untextured(&mut all, &frame, 3, 0.0).unwrap(), 0);
+        assert_eq!(drop_untextured(&mut all, &frame, 3, 128.0).unwrap(), 800);
+        // A depth image of the wrong size, a NaN threshold: errors, nothing changed.
+        let mut short = vec![7u16; 10];
+        assert!(drop_untextured(&mut short, &frame, 3, 1.0).is_err());
+        assert!(drop_untextured(&mut depth, &frame, 3, f64::NAN).is_err());
+        assert_eq!(short, vec![7u16; 10]);
+    }
 }
