@@ -336,3 +336,25 @@ fn eval_refuses_a_tilt_limit_without_the_terrain_attitude_or_out_of_range() {
     }
     assert!(!p.join("e.json").exists());
 }
+
+#[test]
+fn eval_refuses_a_texture_mask_without_exact_depth_or_out_of_range() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    let base = ["eval", "--seed", "2", "--queries", "1", "--json", "e.json"];
+    refused(
+        p,
+        &[&base[..], &["--truth-min-texture", "1"]].concat(),
+        1,
+        &["--truth-min-texture", "--depth truth"],
+    );
+    for bad in ["-1", "NaN", "inf"] {
+        refused(
+            p,
+            &[&base[..], &["--depth", "truth", "--truth-min-texture", bad]].concat(),
+            2,
+            &["--truth-min-texture", "at least 0"],
+        );
+    }
+    assert!(!p.join("e.json").exists());
+}

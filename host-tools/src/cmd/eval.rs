@@ -87,7 +87,7 @@ pub struct Args {
     /// has a gray-level standard deviation of at least GRAY (e.g. 1): what an ideal stereo
     /// engine could give at best, nothing in black shadow or on featureless ground. Without
     /// it the exact depth is everywhere, shadows included.
-    #[arg(long, value_name = "GRAY", value_parser = crate::cmd::num::non_negative_f64)]
+    #[arg(long, value_name = "GRAY", allow_negative_numbers = true, value_parser = crate::cmd::num::non_negative_f64)]
     pub truth_min_texture: Option<f64>,
     /// Range path: largest column stride (1 = every pixel; up to 16: rows near the mast
     /// read every s-th pixel, at most half a cell apart on flat ground; 4 = the fix's default).
@@ -155,6 +155,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "--max-tilt is for the built-in world's stops, not --dem"
         );
     }
+    anyhow::ensure!(
+        a.truth_min_texture.is_none()
+            || a.reprojection.unwrap_or(a.depth.reprojection()) == Reprojection::Range,
+        "--truth-min-texture masks the renderer's exact depth: it needs --depth truth"
+    );
     let matchers = parse_matchers(&a.matcher)
         .with_context(|| format!("--matcher (available: {})", MATCHERS.join(", ")))?;
     let cfg = EvalConfig {
