@@ -4,7 +4,7 @@
 
 use super::{MapRegion, TopDown};
 use crate::render::{self, RenderOptions, Sun};
-use crate::reproject::depth::{depth_images, StereoNoise};
+use crate::reproject::depth::{depth_images, drop_untextured_views, StereoNoise};
 use crate::world::{zones, World};
 use anyhow::Context;
 use orbfix::geo::GeoRef;
@@ -245,7 +245,7 @@ pub fn observe_raw(
                 ..n
             });
             let mut depths = depth_images(&set, noise)?;
-            textured_only(&mut depths, &set.views, opts)?;
+            drop_untextured_views(&mut depths, &set.views, opts.truth_min_texture)?;
             Ok(Observation {
                 views: set.views,
                 depths: Some(depths.clone()),
@@ -273,7 +273,7 @@ pub fn observe_raw(
                 &opts.stereo_params(),
             )?;
             let mut truth = depth_images(&set.left, None)?;
-            textured_only(&mut truth, &set.left.views, opts)?;
+            drop_untextured_views(&mut truth, &set.left.views, opts.truth_min_texture)?;
             Ok(Observation {
                 views: set.left.views,
                 depths: Some(depths),
@@ -284,25 +284,6 @@ pub fn observe_raw(
             })
         }
     }
-}
-
-/// Drops the exact depths where the frames have no texture to match, if `opts` asks.
-fn textured_only(
-    depths: &mut [Vec<u16>; 4],
-    frames: &[image::GrayImage; 4],
-    opts: &PipelineOptions,
-) -> anyhow::Result<()> {
-    if let Some(t) = opts.truth_min_texture {
-        for (d, f) in depths.iter_mut().zip(frames) {
-            crate::reproject::depth::drop_untextured(
-                d,
-                f,
-                crate::reproject::depth::TEXTURE_RADIUS_PX,
-                t,
-            )?;
-        }
-    }
-    Ok(())
 }
 
 /// The core's top-down image of an observation (LUT on flat ground, or range with its

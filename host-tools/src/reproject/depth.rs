@@ -141,6 +141,21 @@ pub fn drop_untextured(
     Ok(dropped)
 }
 
+/// [`drop_untextured`] on each of four views' depth images with its frame, at
+/// [`TEXTURE_RADIUS_PX`], when a threshold is given (`None`: nothing dropped).
+pub fn drop_untextured_views(
+    depths: &mut [Vec<u16>; 4],
+    frames: &[image::GrayImage; 4],
+    min_std: Option<f64>,
+) -> anyhow::Result<()> {
+    if let Some(t) = min_std {
+        for (d, f) in depths.iter_mut().zip(frames) {
+            drop_untextured(d, f, TEXTURE_RADIUS_PX, t)?;
+        }
+    }
+    Ok(())
+}
+
 /// Depth images of four stereo pairs computed by the core's own matcher
 /// ([`orbfix::stereo::StereoRig`], the same code the fix runs as its `stereo` stage), at
 /// the frames' size: each frame pixel takes the depth of the working-size pixel it lies in,
