@@ -155,6 +155,13 @@ pub struct RangeOptions {
     /// ground. Near the mast a cell gets hundreds of pixels, so this saves most of the
     /// per-pixel work for a small change of the image.
     pub max_column_stride: u8,
+    /// Frame pixels darker than this, gray levels, get no depth in
+    /// [`RangeAccumulator::add_rows`] (the on-board stereo's bands), so they are neither
+    /// placed nor used for the relief (0: off, the default). The lunar sky is black (0),
+    /// the deepest shadow in the rendered frames about 29: the sky next to the skyline,
+    /// whose window holds the skyline's edge, would otherwise be placed at the skyline's
+    /// distance (`docs/stereo.md`, "Rising terrain in the horizon rows").
+    pub sky_below_gray: u8,
 }
 
 impl RangeOptions {
@@ -190,6 +197,7 @@ impl Default for RangeOptions {
             max_height_m: f32::INFINITY,
             fill_min_neighbours: DEFAULT_FILL_MIN,
             max_column_stride: 1,
+            sky_below_gray: 0,
         }
     }
 }
@@ -454,6 +462,16 @@ pub struct DepthBand<'a> {
     /// Reduction factor (1..): frame pixel `(i, j)` reads reduced pixel `(i / factor, j /
     /// factor)`.
     pub factor: usize,
+}
+
+/// No depth (0) at the pixels of `frow` darker than `below` gray levels
+/// ([`RangeOptions::sky_below_gray`]); `drow` the row's depths, as long as `frow` or shorter.
+fn drop_sky(frow: &[u8], drow: &mut [u16], below: u8) {
+    for (d, &g) in drow.iter_mut().zip(frow) {
+        if g < below {
+            *d = 0;
+        }
+    }
 }
 
 /// Places one row, every `stride`-th pixel from the first: the `k`-th pixel read has the
@@ -854,12 +872,20 @@ impl<'s> RangeAccumulator<'s> {
                 .data
                 .get(y * band.width..(y + 1) * band.width)
                 .ok_or(bad)?;
-            let drow = if k == 1 {
+            let sky = self.opts.sky_below_gray;
+            let drow = if k == 1 && sky == 0 {
                 src.get(..w).ok_or(bad)?
             } else {
-                // Each frame row at its own distance ([`DepthExpander`]).
                 let out = row_buf.get_mut(..w).ok_or(bad)?;
-                expander.expand_row(j, k, src, out);
+                if k == 1 {
+                    out.copy_from_slice(src.get(..w).ok_or(bad)?);
+                } else {
+                    // Each frame row at its own distance ([`DepthExpander`]).
+                    expander.expand_row(j, k, src, out);
+                }
+                if sky > 0 {
+                    drop_sky(frow, out, sky);
+                }
                 &*out
             };
             self.place(&setup, j, frow, drow)?;

@@ -47,6 +47,10 @@ pub struct RowRanges {
     near: Option<(f32, f32)>,
     below: f32,
     inv_zmax: f32,
+    /// The horizon rows' relief: `(a0, g)`, a point at depth `Z` stands at most `a0 + g Z`
+    /// above the ground, no cap (`StereoParams::horizon_grade`); `None`: those rows are
+    /// not searched.
+    horizon: Option<(f32, f32)>,
     /// The nominal ground slope terms of this view's camera: the flat ground under pixel
     /// `(xn, yn)` (normalized coordinates) lies at depth `h / s` with `s = a xn + b yn + c`,
     /// `(a, b, c)` minus the world's up in camera coordinates ([`Attitude::ground_terms`]).
@@ -165,6 +169,8 @@ impl RowRanges {
                 .then_some((p.relief_above_near_m, p.relief_above_grade)),
             below: p.relief_below_m,
             inv_zmax: 1.0 / zmax,
+            horizon: (p.horizon_grade > 0.0)
+                .then_some((p.relief_above_near_m.min(p.relief_above_m), p.horizon_grade)),
             nom: att.terms,
             half,
             root: libm::sqrtf(half * half + 1.0),
@@ -335,7 +341,20 @@ impl RowRanges {
             libm::fabsf(a) * self.half + self.marg * (self.root + yn * yn / (2.0 * self.root));
         let s_lo = s_mid - spread;
         let s_hi = s_mid + spread;
-        if s_hi.is_nan() || s_hi <= 0.0 {
+        if s_hi.is_nan() {
+            return None;
+        }
+        if let Some((a0, g)) = self.horizon {
+            // A horizon row: its flat ground lies beyond `Zmax` (or it sees none). A point
+            // at depth `Z <= Zmax` on its ray stands `h - Z s` over the ground, at most
+            // `a0 + g Z`: `Z >= (h - a0) / (s + g)`.
+            if s_hi < self.h * self.inv_zmax {
+                let d_lo = self.fb * self.inv_zmax;
+                let d_hi = self.fb * (s_hi + g) / (self.h - a0);
+                return (d_hi >= d_lo).then_some((d_lo, d_hi));
+            }
+        }
+        if s_hi <= 0.0 {
             return None;
         }
         let d_lo = self.fb * (s_lo / (self.h + self.below)).max(self.inv_zmax);
@@ -554,6 +573,77 @@ mod tests {
             ..full
         };
         assert_eq!(RowRanges::new(&cam, &off, 0), a);
+    }
+
+    #[test]
+    fn horizon_rows_reach_rising_terrain_and_only_them_change() {
+        let cam = CameraParams::default();
+        let (t, h) = (cam.tilt_deg.to_radians(), cam.height_m);
+        // Disparities, not residuals.
+        let base = StereoParams {
+            ground_shear: false,
+            ..StereoParams::default()
+        };
+        let hz = StereoParams {
+            horizon_grade: 0.3,
+            ..base
+        };
+        let (a, b) = (RowRanges::new(&cam, &base, 0), RowRanges::new(&cam, &hz, 0));
+        let f = a.focal_px();
+        let zmax = libm::sqrtf(base.max_ground_range_m.powi(2) + (h + 2.0).powi(2));
+        let s_of = |v: usize| {
+            let yn = (v as f32 + 0.5 - 90.0) / f;
+            libm::sinf(t) + yn * libm::cosf(t)
+        };
+        let (mut new_rows, mut checked) = (0, 0);
+        for v in 0..180 {
+            let s = s_of(v);
+            // `s` over the row and 2 deg of pitch and roll reaches `s + 0.0707` to
+            // `s + 0.0715` here (`s_hi`). Rows that can see flat ground within the range:
+            // unchanged. Rows near that edge are left out of both checks.
+            if s + 0.072 > h / zmax {
+                if s + 0.0707 > h / zmax {
+                    assert_eq!(a.row(v), b.row(v), "row {v}");
+                }
+                continue;
+            }
+            if a.row(v).is_none() && b.row(v).is_some() {
+                new_rows += 1;
+            }
+            // A slope rising 0.25 m per metre from under the rover, seen by the row's centre
+            // ray at depth Z (`h - Z s = 0.25 Z`): inside the range when within Zmax.
+            let z = h / (s + 0.25);
+            if z > 0.0 && z < zmax {
+                let d = f * 0.3 / z;
+                let (lo, hi) = b
+                    .row(v)
+                    .expect("a horizon row that sees the slope is searched");
+                assert!(
+                    lo as f32 + 1.0 <= d + 1e-3 && d <= hi as f32 - 1.0 + 1e-3,
+                    "{v}: {d}"
+                );
+                checked += 1;
+            }
+            // Nothing nearer than the grade allows (0.5 m + 0.3 Z up): the range ends there.
+            if let Some((_, hi)) = b.row(v) {
+                let z_near = 1.5 / (s + 0.3 + 0.076);
+                assert!(hi as f32 <= f * 0.3 / z_near + 2.0 + 1e-3, "{v}: {hi}");
+            }
+        }
+        // Rows above the flat ground's horizon and those whose flat ground lies beyond the
+        // range (rows 8 to 41 at the working size).
+        assert!(new_rows >= 25, "{new_rows}");
+        assert!(checked >= 25, "{checked}");
+        assert!(b.first_active() < a.first_active());
+        assert!(b.row_work(0, 180) > a.row_work(0, 180));
+        // Checked by the rig: a NaN or negative grade is refused.
+        for g in [f32::NAN, -0.1, 11.0] {
+            let p = StereoParams {
+                horizon_grade: g,
+                ..base
+            };
+            assert!(super::super::StereoRig::new(&cam, &p).is_err(), "{g}");
+        }
     }
 
     #[test]

@@ -164,6 +164,16 @@ pub struct StereoParams {
     pub relief_above_near_m: f32,
     /// Grade of the relief above with depth, metres per metre (finite, in [0, 10]).
     pub relief_above_grade: f32,
+    /// Grade of the terrain searched in the horizon rows, metres per metre of depth
+    /// (finite, in [0, 10]; 0: off, the default): the rows whose flat ground lies beyond
+    /// `max_ground_range_m` (or above the horizon) search every point within the range
+    /// that stands at most `min(relief_above_near_m, relief_above_m) + horizon_grade Z`
+    /// above the ground under the rover, with no cap at `relief_above_m`: terrain rising
+    /// toward the skyline, seen above the flat ground's horizon. Costs pixel-disparities
+    /// (0.3: about +48 % for the default rig; `docs/stereo.md`, "Rising terrain in the
+    /// horizon rows"); the sky next to the skyline matches the skyline's edge, so pair it
+    /// with the range stage's `RangeOptions::sky_below_gray`.
+    pub horizon_grade: f32,
     /// Deepest relief below the ground under the rover, metres, >= 0: sets the smallest
     /// disparity of each row.
     pub relief_below_m: f32,
@@ -220,6 +230,7 @@ impl Default for StereoParams {
             relief_above_m: 1.0,
             relief_above_near_m: 0.5,
             relief_above_grade: 0.1,
+            horizon_grade: 0.0,
             relief_below_m: 2.0,
             attitude_margin_deg: 2.0,
             scale_levels: 2,
@@ -502,7 +513,7 @@ impl StereoRig {
         if !(p.baseline_m.is_finite() && p.baseline_m > 0.0 && p.baseline_m <= 10.0) {
             return Err(StereoError::Baseline);
         }
-        let checks: [(bool, &'static str); 20] = [
+        let checks: [(bool, &'static str); 21] = [
             ((1..=4).contains(&p.downsample), "downsample must be 1..=4"),
             (
                 (1..=MAX_RADIUS).contains(&p.radius_px),
@@ -547,6 +558,10 @@ impl StereoRig {
                     && p.relief_above_grade.is_finite()
                     && (0.0..=10.0).contains(&p.relief_above_grade),
                 "relief_above_near_m must be >= 0 and relief_above_grade in [0, 10]",
+            ),
+            (
+                p.horizon_grade.is_finite() && (0.0..=10.0).contains(&p.horizon_grade),
+                "horizon_grade must be finite and in [0, 10]",
             ),
             (
                 p.max_ground_range_m.is_finite() && p.max_ground_range_m > 0.0,

@@ -815,6 +815,7 @@ mod tests {
                     relief_below_m: 0.5 + 0.5 * rng.below(4) as f32,
                     scale_levels: rng.below(3) as u8,
                     scale_error_m: [0.0, 0.1, 0.3, 1.0][rng.below(4) as usize],
+                    horizon_grade: [0.0, 0.0, 0.2, 0.4][rng.below(4) as usize],
                     ..StereoParams::default()
                 };
                 (cam, p)
@@ -903,6 +904,8 @@ mod tests {
                 pair_radius_rows_px: [2, 1, 1, 2][case],
                 // Short gaps of the output rows filled in two cases.
                 gap_fill_px: [0, 8, 0, 3][case],
+                // The horizon rows searched in two cases.
+                horizon_grade: [0.0, 0.3, 0.0, 0.2][case],
                 ..StereoParams::default()
             };
             let rig = StereoRig::new(&cam, &p).unwrap();

@@ -72,6 +72,10 @@ pub struct Args {
     /// stereo: grade of the relief above with depth, metres per metre.
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().relief_above_grade)]
     relief_above_grade: f32,
+    /// stereo: the horizon rows (flat ground beyond the range) search terrain rising this
+    /// many metres per metre of depth (0: off; docs/stereo.md).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().horizon_grade)]
+    horizon_grade: f32,
     /// stereo: relief searched below the ground under the rover, metres.
     #[arg(long, allow_negative_numbers = true, default_value_t = orbfix::stereo::StereoParams::default().relief_below_m)]
     relief_below: f32,
@@ -184,6 +188,7 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         relief_above_m: args.relief_above,
         relief_above_near_m: args.relief_above_near,
         relief_above_grade: args.relief_above_grade,
+        horizon_grade: args.horizon_grade,
         relief_below_m: args.relief_below,
         attitude_margin_deg: args.attitude_margin,
         scale_levels: args.scale_levels,

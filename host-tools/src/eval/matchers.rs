@@ -35,6 +35,8 @@ pub const FIX_OPTIONS: &str = "-pN (coarse peaks refined), -mnN (smallest NCC ke
 peak needs over the CNN's best with the fix's own stereo depth), \
 -raN / -rbN (stereo: relief searched above / below the ground, metres), -anN / -agN \
 (stereo: relief above near the rover, metres, growing by N metres per metre of depth up to -ra), \
+-hgN (stereo: the horizon rows search terrain rising N metres per metre of depth; 0: off), \
+-skN (frame pixels darker than N gray levels get no stereo depth: the black sky; 0: off), \
 -amN (stereo: pitch and roll margin around the rover's attitude, degrees), -srN (stereo: \
 ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -rrN (stereo: \
 window radius down, rows), -rcN (stereo: window radius across, pixels), -seN (stereo: coarser scale where a quarter pixel moves the ground \
@@ -107,7 +109,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         if ![
             "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
             "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr", "mx", "gf", "an", "ag", "am",
-            "gs", "rc", "fn",
+            "gs", "rc", "fn", "hg", "sk",
         ]
         .contains(&key)
         {
@@ -132,6 +134,14 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
             "ra" => m.relief_above_m = v,
             "an" => m.relief_above_near_m = v,
             "ag" => m.relief_above_grade = v,
+            "hg" => m.horizon_grade = v,
+            "sk" => {
+                cfg.range.sky_below_gray = u8::try_from(whole(v)?).map_err(|_| {
+                    anyhow::anyhow!(
+                        "option '{part}' of matcher '{name}': sk is 0..=255 gray levels"
+                    )
+                })?
+            }
             "am" => m.attitude_margin_deg = v,
             "rb" => m.relief_below_m = v,
             "sr" => m.max_ground_range_m = v,
@@ -320,6 +330,11 @@ mod tests {
         let c = fix_config_by_name("fix-rc6-fn3").unwrap();
         assert_eq!(c.stereo.matcher.radius_px, 6);
         assert_eq!(c.range.fill_min_neighbours, 3);
+        let c = fix_config_by_name("fix-hg0.3-sk8").unwrap();
+        assert_eq!(c.stereo.matcher.horizon_grade, 0.3);
+        assert_eq!(c.range.sky_below_gray, 8);
+        assert_eq!(d.stereo.matcher.horizon_grade, 0.0);
+        assert_eq!(d.range.sky_below_gray, 0);
         // Options on the other bases too.
         let c = fix_config_by_name("fix-ncc-p4").unwrap();
         assert_eq!((c.refine.mode, c.refine.peaks), (RefineMode::Ncc, 4));
@@ -346,6 +361,9 @@ mod tests {
             ("fix-ra5", "relief_above"),
             ("fix-rc8", "radius_px"),
             ("fix-fn9", "fill"),
+            ("fix-hg11", "horizon_grade"),
+            ("fix-sk256", "sk is 0..=255"),
+            ("fix-sk2.5", "whole number"),
         ] {
             let e = fix_config_checked(name).expect_err(name);
             let msg = format!("{e:#}");
