@@ -631,7 +631,7 @@ mod tests {
             }
         }
         // Rows above the flat ground's horizon and those whose flat ground lies beyond the
-        // range (rows 8 to 41 at the working size).
+        // range: at grade 0.3 every row from the image's top (row 0) to row 39 is new.
         assert!(new_rows >= 25, "{new_rows}");
         assert!(checked >= 25, "{checked}");
         assert!(b.first_active() < a.first_active());
