@@ -328,22 +328,7 @@ impl RowRanges {
     /// The disparities, pixels, that row `v` can see within the range (before the shear
     /// and the widening), or `None` when it only sees sky.
     fn span(&self, v: usize) -> Option<(f32, f32)> {
-        if v >= self.height {
-            return None;
-        }
-        let yn = (v as f32 + 0.5 - self.cy) / self.focal_rows;
-        let [a, b, c] = self.nom;
-        // `s` over the row (`|xn| <= half`) and over the attitude's uncertainty (`|d (a, b,
-        // c)| <= marg`, so `s` moves by at most `marg |(xn, yn, 1)|`, and `sqrt(r^2 + yn^2)
-        // <= r + yn^2 / (2 r)`: no square root per row).
-        let s_mid = b * yn + c;
-        let spread =
-            libm::fabsf(a) * self.half + self.marg * (self.root + yn * yn / (2.0 * self.root));
-        let s_lo = s_mid - spread;
-        let s_hi = s_mid + spread;
-        if s_hi.is_nan() {
-            return None;
-        }
+        let (s_lo, s_hi) = self.slope_bounds(v)?;
         if let Some((a0, g)) = self.horizon {
             // A horizon row: its flat ground lies beyond `Zmax` (or it sees none). A point
             // at depth `Z <= Zmax` on its ray stands `h - Z s` over the ground, at most
@@ -370,6 +355,40 @@ impl RowRanges {
             return None;
         }
         Some((d_lo, d_hi))
+    }
+
+    /// Whether row `v` is searched as a horizon row (`StereoParams::horizon_grade` on, and
+    /// its flat ground lies beyond the range under every attitude the margin allows, or it
+    /// sees none).
+    pub fn is_horizon_row(&self, v: usize) -> bool {
+        self.horizon.is_some()
+            && self
+                .slope_bounds(v)
+                .is_some_and(|(_, s_hi)| s_hi < self.h * self.inv_zmax)
+            && self.span(v).is_some()
+    }
+
+    /// The least and greatest flat-ground slope `s` of row `v` (its flat ground at depth
+    /// `h / s`) over its columns and the attitude's uncertainty, or `None` outside the
+    /// image.
+    fn slope_bounds(&self, v: usize) -> Option<(f32, f32)> {
+        if v >= self.height {
+            return None;
+        }
+        let yn = (v as f32 + 0.5 - self.cy) / self.focal_rows;
+        let [a, b, c] = self.nom;
+        // `s` over the row (`|xn| <= half`) and over the attitude's uncertainty (`|d (a, b,
+        // c)| <= marg`, so `s` moves by at most `marg |(xn, yn, 1)|`, and `sqrt(r^2 + yn^2)
+        // <= r + yn^2 / (2 r)`: no square root per row).
+        let s_mid = b * yn + c;
+        let spread =
+            libm::fabsf(a) * self.half + self.marg * (self.root + yn * yn / (2.0 * self.root));
+        let s_lo = s_mid - spread;
+        let s_hi = s_mid + spread;
+        if s_hi.is_nan() {
+            return None;
+        }
+        Some((s_lo, s_hi))
     }
 
     /// The first row that is searched (rows above only see sky, or nothing within the

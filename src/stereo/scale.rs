@@ -27,22 +27,36 @@ use crate::camera::CameraParams;
 /// Matching levels a rig can have: the working size and two coarser scales (2x, 4x).
 pub const LEVELS: usize = 3;
 
-/// Matching scales a rig can have: the levels, then level 0 with its rows in pairs.
-pub const SLOTS: usize = LEVELS + 1;
+/// Matching scales a rig can have: the levels, then level 0 with its rows in pairs near
+/// the rover and at the horizon.
+pub const SLOTS: usize = LEVELS + 2;
 
 /// The slot of level 0's paired rows: the working size's columns, rows reduced twice more
 /// (`StereoParams::pair_rows_m`).
 pub const PAIRED: usize = LEVELS;
 
+/// The slot of the horizon rows matched in pairs (`StereoParams::horizon_pairs`): as
+/// [`PAIRED`], a run of rows at the image's top, its depths taken unscaled by each working
+/// row of a pair.
+pub const HORIZON: usize = LEVELS + 1;
+
+/// Whether slot `l` holds level 0's rows in pairs.
+fn is_pair_slot(l: usize) -> bool {
+    l == PAIRED || l == HORIZON
+}
+
 /// The per-row matching levels of one rig, with each level's disparity ranges.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scales {
-    /// The ranges of each slot: levels 0, 1, 2 and the paired rows ([`PAIRED`]).
+    /// The ranges of each slot: levels 0, 1, 2, the paired rows ([`PAIRED`]) and the
+    /// paired horizon rows ([`HORIZON`]).
     geo: [RowRanges; SLOTS],
     /// Levels in use (1..=LEVELS): levels `used..` are never chosen.
     used: usize,
     /// Whether the paired rows are in use.
     paired: bool,
+    /// Whether the paired horizon rows are in use.
+    horizon: bool,
     /// Window radius down of the paired rows, rows of that slot.
     pair_radius: usize,
     /// Window radius down of the levels, rows of the level.
@@ -98,7 +112,7 @@ impl Scales {
         att: &Attitude,
         usable: impl Fn(&RowRanges) -> bool,
     ) -> Self {
-        let geo: [RowRanges; SLOTS] = [(0u8, 1u32), (1, 1), (2, 1), (0, 2)]
+        let geo: [RowRanges; SLOTS] = [(0u8, 1u32), (1, 1), (2, 1), (0, 2), (0, 2)]
             .map(|(l, m)| RowRanges::with_rows(camera, params, l, m, att));
         let rf = usize::from(params.row_factor.max(1));
         let height = camera
@@ -106,7 +120,7 @@ impl Scales {
             .checked_div(u32::from(params.downsample))
             .unwrap_or(0) as usize;
         // Working rows per row of slot `l`.
-        let per = |l: usize| if l == PAIRED { 2 * rf } else { rf << l };
+        let per = |l: usize| if is_pair_slot(l) { 2 * rf } else { rf << l };
         let mut start = [height; SLOTS];
         let mut end = [height; SLOTS];
         start[0] = 0;
@@ -149,6 +163,27 @@ impl Scales {
                 paired = true;
             }
         }
+        // The horizon rows in pairs: the run of pairs at the image's top that only see sky
+        // or are horizon rows, from the first that is one.
+        let mut horizon = false;
+        if params.horizon_pairs
+            && usable(&geo[HORIZON])
+            && geo[HORIZON].size().1 >= 2 * pair_radius + 2
+        {
+            let g = &geo[HORIZON];
+            let h_l = g.size().1;
+            let run = (0..h_l)
+                .find(|&q| g.row(q).is_some() && !g.is_horizon_row(q))
+                .unwrap_or(h_l);
+            let first = (0..run).find(|&q| g.is_horizon_row(q));
+            if let Some(q0) = first {
+                (start[HORIZON], end[HORIZON]) = (
+                    (q0 * per(HORIZON)).min(height),
+                    (run * per(HORIZON)).min(height),
+                );
+                horizon = start[HORIZON] < end[HORIZON];
+            }
+        }
         // Near rows decide every `near_step`-th column: from the first slot row from which
         // on that many columns span at most `near_column_span_m` at every row's flat ground
         // (the span shrinks down the image).
@@ -168,6 +203,7 @@ impl Scales {
             geo,
             used,
             paired,
+            horizon,
             pair_radius,
             radius: usize::from(params.radius_rows_px.max(1)),
             start,
@@ -204,6 +240,9 @@ impl Scales {
             }
         }
         me.groups = me.geo.map(|g| g.max_groups());
+        // The paired horizon rows decide every `near_step`-th column: their pixels span
+        // metres of ground or sky, and the sky rule drops much of them.
+        me.near_from[HORIZON] = 0;
         me
     }
 
@@ -219,7 +258,7 @@ impl Scales {
     /// Working rows per row of slot `l` (`row_factor * 2^l` for level `l`, `2 row_factor`
     /// for the paired rows; at least 1).
     pub fn rows_per(&self, l: usize) -> usize {
-        if l == PAIRED {
+        if is_pair_slot(l) {
             2 * self.row_factor.max(1)
         } else {
             (self.row_factor << l.min(LEVELS)).max(1)
@@ -229,7 +268,7 @@ impl Scales {
     /// Working columns per column of slot `l`, as a shift (the level; 0 for the paired
     /// rows).
     pub fn col_shift(&self, l: usize) -> usize {
-        if l == PAIRED {
+        if is_pair_slot(l) {
             0
         } else {
             l.min(LEVELS - 1)
@@ -239,7 +278,7 @@ impl Scales {
     /// Window radius down in slot `l`, rows of that slot (`StereoParams::radius_rows_px`,
     /// `pair_radius_rows_px` for the paired rows).
     pub fn radius_rows(&self, l: usize) -> usize {
-        if l == PAIRED {
+        if is_pair_slot(l) {
             self.pair_radius
         } else {
             self.radius
@@ -255,21 +294,25 @@ impl Scales {
         )
     }
 
-    /// The slots in use: the levels in use, then the paired rows if in use.
+    /// The slots in use: the levels in use, then the paired rows and the paired horizon
+    /// rows if in use.
     pub fn slots(&self) -> impl Iterator<Item = usize> + Clone {
-        (0..self.used).chain(self.paired.then_some(PAIRED))
+        (0..self.used)
+            .chain(self.paired.then_some(PAIRED))
+            .chain(self.horizon.then_some(HORIZON))
     }
 
     /// The scale, Q15 ([`ROW_SCALE_BITS`]), that takes the depth (`depth`) or the
     /// disparity (`!depth`) matched for row `q` of level `l` to working row `y` inside it:
     /// the ratio of the two rows' flat-ground depths (of their centre rays), so the
     /// `rows_per(l)` working rows of a coarse row keep the ground's slope instead of
-    /// stepping. 1.0 where either row sees no ground, and where the ratio leaves
-    /// `[0.5, 2]` (next to the horizon). Set-up math, once per output row.
+    /// stepping. 1.0 where either row sees no ground, where the ratio leaves `[0.5, 2]`
+    /// (next to the horizon), and in the paired horizon rows ([`HORIZON`]: terrain rising
+    /// toward the skyline, not flat ground). Set-up math, once per output row.
     pub fn row_scale_q15(&self, l: usize, q: usize, y: usize, depth: bool) -> u32 {
         let one = 1u32 << ROW_SCALE_BITS;
         let m = self.rows_per(l);
-        if m <= 1 {
+        if m <= 1 || l == HORIZON {
             return one;
         }
         // Centre of the coarse row, in working rows (minus 0.5: `s0` is row 0's centre).
@@ -301,20 +344,22 @@ impl Scales {
     }
 
     /// The slot working row `y` is matched at: the coarsest level in use whose rows hold
-    /// it, else the paired rows if they hold it, else level 0.
+    /// it, else the paired rows or the paired horizon rows if they hold it, else level 0.
     pub fn level_of_row(&self, y: usize) -> usize {
         let holds = |l: usize| matches!((self.start.get(l), self.end.get(l)), (Some(&s), Some(&e)) if s <= y && y < e);
         (1..self.used)
             .rev()
             .find(|&l| holds(l))
             .or_else(|| (self.paired && holds(PAIRED)).then_some(PAIRED))
+            .or_else(|| (self.horizon && holds(HORIZON)).then_some(HORIZON))
             .unwrap_or(0)
     }
 
     /// First working row of level `l` and one past its last (`(height, height)` when the
     /// level has no rows; level 0 spans the image).
     pub fn rows_of_level(&self, l: usize) -> (usize, usize) {
-        let in_use = l < self.used || (l == PAIRED && self.paired);
+        let in_use =
+            l < self.used || (l == PAIRED && self.paired) || (l == HORIZON && self.horizon);
         match (self.start.get(l), self.end.get(l)) {
             (Some(&s), Some(&e)) if in_use && s < e => (s, e),
             _ => (self.height, self.height),
@@ -561,5 +606,81 @@ mod tests {
         assert_eq!(none.rows_of_level(PAIRED), (180, 180));
         assert!(!none.slots().any(|l| l == PAIRED));
         assert!(s.row_work(0, 180) < none.row_work(0, 180) * 9 / 10);
+    }
+
+    #[test]
+    fn horizon_rows_go_in_pairs_only_when_asked_and_only_there() {
+        let cam = CameraParams::default();
+        let att = Attitude::level(cam.tilt_deg);
+        let p = StereoParams {
+            horizon_grade: 0.3,
+            horizon_pairs: true,
+            ..StereoParams::default()
+        };
+        let s = Scales::new(&cam, &p, &att, |_| true);
+        let single = Scales::new(
+            &cam,
+            &StereoParams {
+                horizon_pairs: false,
+                ..p
+            },
+            &att,
+            |_| true,
+        );
+        let (a, b) = s.rows_of_level(HORIZON);
+        assert!(s.slots().any(|l| l == HORIZON));
+        assert!(a < b && a % 2 == 0 && b % 2 == 0, "{a} {b}");
+        assert_eq!((s.rows_per(HORIZON), s.col_shift(HORIZON)), (2, 0));
+        assert_eq!(s.radius_rows(HORIZON), usize::from(p.pair_radius_rows_px));
+        // Every pair of the slot is a horizon row of the paired image; the pair below is
+        // not, and the rows above (if any) see nothing.
+        let g = s.level(HORIZON);
+        for y in a..b {
+            assert_eq!(s.level_of_row(y), HORIZON, "{y}");
+            assert!(g.is_horizon_row(y / 2), "{y}");
+            // Decided every fourth column, depths unscaled.
+            assert_eq!(s.column_step(HORIZON, y / 2), 4);
+            assert_eq!(
+                s.row_scale_q15(HORIZON, y / 2, y, true),
+                1 << ROW_SCALE_BITS
+            );
+        }
+        assert!(!g.is_horizon_row(b / 2) && g.row(b / 2).is_some(), "{b}");
+        assert!(a == 0 || g.row(a / 2 - 1).is_none(), "{a}");
+        assert_eq!(s.first_active(), a);
+        // Below, the rows are the rig's without the pairs; the horizon rows there are the
+        // same working rows, singly.
+        for y in b..180 {
+            assert_eq!(s.level_of_row(y), single.level_of_row(y), "{y}");
+        }
+        // (The pairs' boundary is the single rows' to within the pair.)
+        let s0 = single.level(0);
+        for y in 0..180 {
+            if y + 1 < a || y > b {
+                assert!(!s0.is_horizon_row(y), "{y} {a} {b}");
+            } else if (a + 1..b.saturating_sub(1)).contains(&y) {
+                assert!(s0.is_horizon_row(y), "{y} {a} {b}");
+            }
+        }
+        // About half the horizon rows' work.
+        let (hw, sw) = (s.row_work(0, b), single.row_work(0, b));
+        assert!(hw * 10 < sw * 6 && hw * 10 > sw * 4, "{hw} {sw}");
+        assert_eq!(s.row_work(b, 180), single.row_work(b, 180));
+        // None without the horizon rows, and none unless asked.
+        for q in [
+            StereoParams {
+                horizon_grade: 0.0,
+                ..p
+            },
+            StereoParams {
+                horizon_pairs: false,
+                ..p
+            },
+        ] {
+            let n = Scales::new(&cam, &q, &att, |_| true);
+            assert!(!n.slots().any(|l| l == HORIZON));
+            assert_eq!(n.rows_of_level(HORIZON), (180, 180));
+            assert!((0..180).all(|y| n.level_of_row(y) != HORIZON));
+        }
     }
 }
