@@ -174,14 +174,15 @@ pub struct StereoParams {
     /// horizon rows"); the sky next to the skyline matches the skyline's edge, so pair it
     /// with the range stage's `RangeOptions::sky_below_gray`.
     pub horizon_grade: f32,
-    /// The horizon rows (with `horizon_grade` on) matched in pairs, as the near rows of
-    /// `pair_rows_m` are: the frames reduced twice as much down there, the working size's
-    /// columns and disparities, `pair_radius_rows_px` rows of pairs down, every
-    /// `near_column_step`-th column decided; each working row takes its pair's depth
-    /// unscaled (what those rows see is terrain rising toward the skyline, not flat
-    /// ground). Off by default; about halves the horizon rows' work (`docs/stereo.md`,
-    /// "Rising terrain in the horizon rows").
-    pub horizon_pairs: bool,
+    /// The horizon rows (with `horizon_grade` on) matched at level 1, the frames reduced by
+    /// `2 downsample` both ways: half the columns, rows and disparities of the working size,
+    /// `pair_radius_rows_px` rows down, every `column_step`-th column decided; both working
+    /// rows of a level row take its depth unscaled (what those rows see is terrain rising
+    /// toward the skyline, not flat ground). A quarter pixel there moves a point 20 m away
+    /// by about 4 m: these rows place hills, not centimetres. Off by default; cuts the
+    /// horizon rows' work to about a third (`docs/stereo.md`, "Rising terrain in the
+    /// horizon rows").
+    pub horizon_coarse: bool,
     /// Deepest relief below the ground under the rover, metres, >= 0: sets the smallest
     /// disparity of each row.
     pub relief_below_m: f32,
@@ -239,7 +240,7 @@ impl Default for StereoParams {
             relief_above_near_m: 0.5,
             relief_above_grade: 0.1,
             horizon_grade: 0.0,
-            horizon_pairs: false,
+            horizon_coarse: false,
             relief_below_m: 2.0,
             attitude_margin_deg: 2.0,
             scale_levels: 2,

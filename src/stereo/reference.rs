@@ -816,7 +816,7 @@ mod tests {
                     scale_levels: rng.below(3) as u8,
                     scale_error_m: [0.0, 0.1, 0.3, 1.0][rng.below(4) as usize],
                     horizon_grade: [0.0, 0.0, 0.2, 0.4][rng.below(4) as usize],
-                    horizon_pairs: rng.below(2) == 0,
+                    horizon_coarse: rng.below(2) == 0,
                     ..StereoParams::default()
                 };
                 (cam, p)
@@ -908,7 +908,7 @@ mod tests {
                 // The horizon rows searched in two cases.
                 horizon_grade: [0.0, 0.3, 0.0, 0.2][case],
                 // In pairs in one of them.
-                horizon_pairs: case == 1,
+                horizon_coarse: case == 1,
                 ..StereoParams::default()
             };
             let rig = StereoRig::new(&cam, &p).unwrap();

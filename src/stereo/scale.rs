@@ -35,12 +35,13 @@ pub const SLOTS: usize = LEVELS + 2;
 /// (`StereoParams::pair_rows_m`).
 pub const PAIRED: usize = LEVELS;
 
-/// The slot of the horizon rows matched in pairs (`StereoParams::horizon_pairs`): as
-/// [`PAIRED`], a run of rows at the image's top, its depths taken unscaled by each working
-/// row of a pair.
+/// The slot of the horizon rows matched at level 1 (`StereoParams::horizon_coarse`): a run
+/// of rows at the image's top, level 1's columns, rows and disparities, `pair_radius_rows_px`
+/// rows down, every `column_step`-th column decided, its depths taken unscaled by both
+/// working rows of a level row.
 pub const HORIZON: usize = LEVELS + 1;
 
-/// Whether slot `l` holds level 0's rows in pairs.
+/// Whether slot `l` takes the paired rows' window radius down.
 fn is_pair_slot(l: usize) -> bool {
     l == PAIRED || l == HORIZON
 }
@@ -55,7 +56,7 @@ pub struct Scales {
     used: usize,
     /// Whether the paired rows are in use.
     paired: bool,
-    /// Whether the paired horizon rows are in use.
+    /// Whether the coarse horizon rows are in use.
     horizon: bool,
     /// Window radius down of the paired rows, rows of that slot.
     pair_radius: usize,
@@ -112,7 +113,7 @@ impl Scales {
         att: &Attitude,
         usable: impl Fn(&RowRanges) -> bool,
     ) -> Self {
-        let geo: [RowRanges; SLOTS] = [(0u8, 1u32), (1, 1), (2, 1), (0, 2), (0, 2)]
+        let geo: [RowRanges; SLOTS] = [(0u8, 1u32), (1, 1), (2, 1), (0, 2), (1, 1)]
             .map(|(l, m)| RowRanges::with_rows(camera, params, l, m, att));
         let rf = usize::from(params.row_factor.max(1));
         let height = camera
@@ -120,7 +121,11 @@ impl Scales {
             .checked_div(u32::from(params.downsample))
             .unwrap_or(0) as usize;
         // Working rows per row of slot `l`.
-        let per = |l: usize| if is_pair_slot(l) { 2 * rf } else { rf << l };
+        let per = |l: usize| match l {
+            PAIRED => 2 * rf,
+            HORIZON => rf << 1,
+            _ => rf << l,
+        };
         let mut start = [height; SLOTS];
         let mut end = [height; SLOTS];
         start[0] = 0;
@@ -163,10 +168,10 @@ impl Scales {
                 paired = true;
             }
         }
-        // The horizon rows in pairs: the run of pairs at the image's top that only see sky
-        // or are horizon rows, from the first that is one.
+        // The horizon rows at level 1: the run of level rows at the image's top that only
+        // see sky or are horizon rows, from the first that is one.
         let mut horizon = false;
-        if params.horizon_pairs
+        if params.horizon_coarse
             && usable(&geo[HORIZON])
             && geo[HORIZON].size().1 >= 2 * pair_radius + 2
         {
@@ -240,9 +245,8 @@ impl Scales {
             }
         }
         me.groups = me.geo.map(|g| g.max_groups());
-        // The paired horizon rows decide every `near_step`-th column: their pixels span
-        // metres of ground or sky, and the sky rule drops much of them.
-        me.near_from[HORIZON] = 0;
+        // The coarse horizon rows decide every `column_step`-th column (of level 1).
+        me.near_from[HORIZON] = me.geo[HORIZON].size().1;
         me
     }
 
@@ -256,27 +260,26 @@ impl Scales {
     }
 
     /// Working rows per row of slot `l` (`row_factor * 2^l` for level `l`, `2 row_factor`
-    /// for the paired rows; at least 1).
+    /// for the paired rows and the coarse horizon rows; at least 1).
     pub fn rows_per(&self, l: usize) -> usize {
-        if is_pair_slot(l) {
-            2 * self.row_factor.max(1)
-        } else {
-            (self.row_factor << l.min(LEVELS)).max(1)
+        match l {
+            PAIRED | HORIZON => 2 * self.row_factor.max(1),
+            _ => (self.row_factor << l.min(LEVELS)).max(1),
         }
     }
 
     /// Working columns per column of slot `l`, as a shift (the level; 0 for the paired
-    /// rows).
+    /// rows, 1 for the coarse horizon rows).
     pub fn col_shift(&self, l: usize) -> usize {
-        if is_pair_slot(l) {
-            0
-        } else {
-            l.min(LEVELS - 1)
+        match l {
+            PAIRED => 0,
+            HORIZON => 1,
+            _ => l.min(LEVELS - 1),
         }
     }
 
     /// Window radius down in slot `l`, rows of that slot (`StereoParams::radius_rows_px`,
-    /// `pair_radius_rows_px` for the paired rows).
+    /// `pair_radius_rows_px` for the paired rows and the coarse horizon rows).
     pub fn radius_rows(&self, l: usize) -> usize {
         if is_pair_slot(l) {
             self.pair_radius
@@ -294,7 +297,7 @@ impl Scales {
         )
     }
 
-    /// The slots in use: the levels in use, then the paired rows and the paired horizon
+    /// The slots in use: the levels in use, then the paired rows and the coarse horizon
     /// rows if in use.
     pub fn slots(&self) -> impl Iterator<Item = usize> + Clone {
         (0..self.used)
@@ -307,7 +310,7 @@ impl Scales {
     /// the ratio of the two rows' flat-ground depths (of their centre rays), so the
     /// `rows_per(l)` working rows of a coarse row keep the ground's slope instead of
     /// stepping. 1.0 where either row sees no ground, where the ratio leaves `[0.5, 2]`
-    /// (next to the horizon), and in the paired horizon rows ([`HORIZON`]: terrain rising
+    /// (next to the horizon), and in the coarse horizon rows ([`HORIZON`]: terrain rising
     /// toward the skyline, not flat ground). Set-up math, once per output row.
     pub fn row_scale_q15(&self, l: usize, q: usize, y: usize, depth: bool) -> u32 {
         let one = 1u32 << ROW_SCALE_BITS;
@@ -344,7 +347,7 @@ impl Scales {
     }
 
     /// The slot working row `y` is matched at: the coarsest level in use whose rows hold
-    /// it, else the paired rows or the paired horizon rows if they hold it, else level 0.
+    /// it, else the paired rows or the coarse horizon rows if they hold it, else level 0.
     pub fn level_of_row(&self, y: usize) -> usize {
         let holds = |l: usize| matches!((self.start.get(l), self.end.get(l)), (Some(&s), Some(&e)) if s <= y && y < e);
         (1..self.used)
@@ -609,19 +612,19 @@ mod tests {
     }
 
     #[test]
-    fn horizon_rows_go_in_pairs_only_when_asked_and_only_there() {
+    fn horizon_rows_go_to_level_1_only_when_asked_and_only_there() {
         let cam = CameraParams::default();
         let att = Attitude::level(cam.tilt_deg);
         let p = StereoParams {
             horizon_grade: 0.3,
-            horizon_pairs: true,
+            horizon_coarse: true,
             ..StereoParams::default()
         };
         let s = Scales::new(&cam, &p, &att, |_| true);
         let single = Scales::new(
             &cam,
             &StereoParams {
-                horizon_pairs: false,
+                horizon_coarse: false,
                 ..p
             },
             &att,
@@ -630,16 +633,18 @@ mod tests {
         let (a, b) = s.rows_of_level(HORIZON);
         assert!(s.slots().any(|l| l == HORIZON));
         assert!(a < b && a % 2 == 0 && b % 2 == 0, "{a} {b}");
-        assert_eq!((s.rows_per(HORIZON), s.col_shift(HORIZON)), (2, 0));
+        assert_eq!((s.rows_per(HORIZON), s.col_shift(HORIZON)), (2, 1));
+        assert_eq!(s.reduction(HORIZON, 2), (4, 4));
+        assert_eq!(s.level(HORIZON).size(), s.level(1).size());
         assert_eq!(s.radius_rows(HORIZON), usize::from(p.pair_radius_rows_px));
-        // Every pair of the slot is a horizon row of the paired image; the pair below is
-        // not, and the rows above (if any) see nothing.
+        // Every row of the slot is a horizon row of level 1's image; the row below is not,
+        // and the rows above (if any) see nothing.
         let g = s.level(HORIZON);
         for y in a..b {
             assert_eq!(s.level_of_row(y), HORIZON, "{y}");
             assert!(g.is_horizon_row(y / 2), "{y}");
-            // Decided every fourth column, depths unscaled.
-            assert_eq!(s.column_step(HORIZON, y / 2), 4);
+            // Decided every `column_step`-th column of level 1, depths unscaled.
+            assert_eq!(s.column_step(HORIZON, y / 2), usize::from(p.column_step));
             assert_eq!(
                 s.row_scale_q15(HORIZON, y / 2, y, true),
                 1 << ROW_SCALE_BITS
@@ -648,12 +653,12 @@ mod tests {
         assert!(!g.is_horizon_row(b / 2) && g.row(b / 2).is_some(), "{b}");
         assert!(a == 0 || g.row(a / 2 - 1).is_none(), "{a}");
         assert_eq!(s.first_active(), a);
-        // Below, the rows are the rig's without the pairs; the horizon rows there are the
-        // same working rows, singly.
+        // Below, the rows are the rig's without the coarse horizon; the horizon rows there
+        // are the same working rows.
         for y in b..180 {
             assert_eq!(s.level_of_row(y), single.level_of_row(y), "{y}");
         }
-        // (The pairs' boundary is the single rows' to within the pair.)
+        // (The slot's boundary is the working rows' to within a level row.)
         let s0 = single.level(0);
         for y in 0..180 {
             if y + 1 < a || y > b {
@@ -662,9 +667,10 @@ mod tests {
                 assert!(s0.is_horizon_row(y), "{y} {a} {b}");
             }
         }
-        // About half the horizon rows' work.
+        // About a quarter of the horizon rows' work (half the columns, rows and
+        // disparities, with the same pixel's widening on both sides).
         let (hw, sw) = (s.row_work(0, b), single.row_work(0, b));
-        assert!(hw * 10 < sw * 6 && hw * 10 > sw * 4, "{hw} {sw}");
+        assert!(hw * 10 < sw * 4 && hw * 10 > sw, "{hw} {sw}");
         assert_eq!(s.row_work(b, 180), single.row_work(b, 180));
         // None without the horizon rows, and none unless asked.
         for q in [
@@ -673,7 +679,7 @@ mod tests {
                 ..p
             },
             StereoParams {
-                horizon_pairs: false,
+                horizon_coarse: false,
                 ..p
             },
         ] {

@@ -76,10 +76,10 @@ pub struct Args {
     /// many metres per metre of depth (0: off; docs/stereo.md).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().horizon_grade)]
     horizon_grade: f32,
-    /// stereo: the horizon rows matched in pairs (with --horizon-grade above 0;
-    /// docs/stereo.md).
+    /// stereo: the horizon rows matched at half the working size (with --horizon-grade
+    /// above 0; docs/stereo.md).
     #[arg(long)]
-    horizon_pairs: bool,
+    horizon_coarse: bool,
     /// stereo: relief searched below the ground under the rover, metres.
     #[arg(long, allow_negative_numbers = true, default_value_t = orbfix::stereo::StereoParams::default().relief_below_m)]
     relief_below: f32,
@@ -193,7 +193,7 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         relief_above_near_m: args.relief_above_near,
         relief_above_grade: args.relief_above_grade,
         horizon_grade: args.horizon_grade,
-        horizon_pairs: args.horizon_pairs,
+        horizon_coarse: args.horizon_coarse,
         relief_below_m: args.relief_below,
         attitude_margin_deg: args.attitude_margin,
         scale_levels: args.scale_levels,

@@ -36,7 +36,7 @@ peak needs over the CNN's best with the fix's own stereo depth), \
 -raN / -rbN (stereo: relief searched above / below the ground, metres), -anN / -agN \
 (stereo: relief above near the rover, metres, growing by N metres per metre of depth up to -ra), \
 -hgN (stereo: the horizon rows search terrain rising N metres per metre of depth; 0: off), \
--hpN (stereo: the horizon rows matched in pairs, 1 on, 0 off), \
+-hlN (stereo: the horizon rows matched at level 1, half the working size, 1 on, 0 off), \
 -skN (frame pixels darker than N gray levels get no stereo depth: the black sky; 0: off), \
 -amN (stereo: pitch and roll margin around the rover's attitude, degrees), -srN (stereo: \
 ground range matched, metres), -rfN (stereo: rows reduced N times more, 1..2), -rrN (stereo: \
@@ -110,7 +110,7 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
         if ![
             "p", "mn", "mns", "ra", "rb", "sr", "rf", "rr", "se", "sp", "u", "mg", "ms", "md",
             "rw", "rm", "ds", "cs", "nm", "nc", "ns", "pm", "pr", "mx", "gf", "an", "ag", "am",
-            "gs", "rc", "fn", "hg", "hp", "sk",
+            "gs", "rc", "fn", "hg", "hl", "sk",
         ]
         .contains(&key)
         {
@@ -156,11 +156,11 @@ fn apply_fix_options(name: &str, tail: &str, cfg: &mut FixConfig) -> anyhow::Res
                 ),
                 }
             }
-            "hp" => {
-                m.horizon_pairs = match whole(v)? {
+            "hl" => {
+                m.horizon_coarse = match whole(v)? {
                     0 => false,
                     1 => true,
-                    _ => bail!("option '{part}' of matcher '{name}': hp is 0 (off) or 1 (on)"),
+                    _ => bail!("option '{part}' of matcher '{name}': hl is 0 (off) or 1 (on)"),
                 }
             }
             "gs" => {
@@ -278,8 +278,8 @@ pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
             spec.distance_weighting_px = Some(20);
         } else if p == "eq" {
             spec.equalize_rings = true;
-        } else if p.starts_with("hp") {
-            spec.highpass_m = Some(num("hp")?);
+        } else if p.starts_with("hc") {
+            spec.highpass_m = Some(num("hc")?);
         } else if p.starts_with('r') {
             spec.max_range_m = Some(num("r")?);
         } else {
@@ -342,8 +342,10 @@ mod tests {
         assert_eq!(c.stereo.matcher.horizon_grade, 0.3);
         assert_eq!(c.range.sky_below_gray, 8);
         assert_eq!(d.stereo.matcher.horizon_grade, 0.0);
-        assert!(!d.stereo.matcher.horizon_pairs);
-        assert!(fix_config_by_name("fix-hg0.3-hp1").is_some_and(|c| c.stereo.matcher.horizon_pairs));
+        assert!(!d.stereo.matcher.horizon_coarse);
+        assert!(
+            fix_config_by_name("fix-hg0.3-hl1").is_some_and(|c| c.stereo.matcher.horizon_coarse)
+        );
         assert_eq!(d.range.sky_below_gray, 0);
         // Options on the other bases too.
         let c = fix_config_by_name("fix-ncc-p4").unwrap();
@@ -373,7 +375,7 @@ mod tests {
             ("fix-fn9", "fill"),
             ("fix-hg11", "horizon_grade"),
             ("fix-sk256", "sk is 0..=255"),
-            ("fix-hp2", "hp is 0 (off) or 1 (on)"),
+            ("fix-hl2", "hl is 0 (off) or 1 (on)"),
             ("fix-sk2.5", "whole number"),
         ] {
             let e = fix_config_checked(name).expect_err(name);
