@@ -157,7 +157,8 @@ pub struct RangeOptions {
     pub max_column_stride: u8,
     /// Frame pixels darker than this, gray levels, get no depth in
     /// [`RangeAccumulator::add_rows`] (the on-board stereo's bands), so they are neither
-    /// placed nor used for the relief (0: off, the default). The lunar sky is black (0),
+    /// placed nor used for the relief (0: off; default 8 since 2026-12-07; depth images
+    /// given to [`RangeAccumulator::add_view`] are placed as given). The lunar sky is black (0),
     /// the deepest shadow in the rendered frames about 29: the sky next to the skyline,
     /// whose window holds the skyline's edge, would otherwise be placed at the skyline's
     /// distance (`docs/stereo.md`, "Rising terrain in the horizon rows").
@@ -197,7 +198,7 @@ impl Default for RangeOptions {
             max_height_m: f32::INFINITY,
             fill_min_neighbours: DEFAULT_FILL_MIN,
             max_column_stride: 1,
-            sky_below_gray: 0,
+            sky_below_gray: 8,
         }
     }
 }

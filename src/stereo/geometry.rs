@@ -460,6 +460,15 @@ mod tests {
     use super::*;
     use crate::camera::{Camera, RoverPose, View};
 
+    /// The default rig without the horizon rows (`horizon_grade` 0): the flat ground's
+    /// ranges these tests check (the horizon rows have their own test).
+    fn flat_rig() -> StereoParams {
+        StereoParams {
+            horizon_grade: 0.0,
+            ..StereoParams::default()
+        }
+    }
+
     #[test]
     fn flat_ground_inside_each_range_and_sky_skipped() {
         let cam = CameraParams::default();
@@ -469,7 +478,7 @@ mod tests {
             row_factor: 1,
             relief_above_m: 0.5,
             ground_shear: false,
-            ..StereoParams::default()
+            ..flat_rig()
         };
         let r = RowRanges::new(&cam, &p, 0);
         let f = r.focal_px();
@@ -543,7 +552,7 @@ mod tests {
         let cam = CameraParams::default();
         let full = StereoParams {
             relief_above_near_m: f32::INFINITY,
-            ..StereoParams::default()
+            ..flat_rig()
         };
         let p = StereoParams {
             relief_above_near_m: 0.5,
@@ -601,7 +610,7 @@ mod tests {
         // Disparities, not residuals.
         let base = StereoParams {
             ground_shear: false,
-            ..StereoParams::default()
+            ..flat_rig()
         };
         let hz = StereoParams {
             horizon_grade: 0.3,
@@ -670,7 +679,7 @@ mod tests {
         let cam = CameraParams::default();
         let p = StereoParams {
             attitude_margin_deg: 0.5,
-            ..StereoParams::default()
+            ..flat_rig()
         };
         let level = RowRanges::with_rows(&cam, &p, 0, 1, &Attitude::level(cam.tilt_deg));
         let f = level.focal_px();
@@ -747,7 +756,7 @@ mod tests {
     #[test]
     fn windows_follow_the_flat_ground() {
         let cam = CameraParams::default();
-        let on = StereoParams::default();
+        let on = flat_rig();
         assert!(on.ground_shear);
         let off = StereoParams {
             ground_shear: false,

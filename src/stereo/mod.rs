@@ -105,8 +105,9 @@ pub struct StereoParams {
     /// working size's columns and disparities) where the flat ground of a pair spans at most
     /// this many metres down the image (finite, >= 0; 0: never): the near rows, where the
     /// top-down image's 0.25 m cells hold several working rows; rows a coarser level takes
-    /// stay there ([`scale`]). Default 0.5 (rows within about 9 m of level ground; 0 until
-    /// 2026-12-05: `docs/stereo.md`, "The stage within 40 M").
+    /// stay there ([`scale`]). Default 1.5 (rows within about 16 m of level ground; 0.5
+    /// until 2026-12-07, 0 until 2026-12-05: `docs/stereo.md`, "The stage within 40 M" and
+    /// "Rising terrain in the horizon rows").
     pub pair_rows_m: f32,
     /// Aggregation radius down in the paired rows, rows of pairs (1..=`radius_rows_px`).
     pub pair_radius_rows_px: u8,
@@ -123,8 +124,9 @@ pub struct StereoParams {
     /// (Q4, rounded half up) where both have a disparity and they agree within 1 px.
     pub near_column_step: u8,
     /// Ground span, metres across, of `near_column_step` level columns up to which a row
-    /// takes the near step (finite, >= 0; 0: never). Default 0.5 (every fourth column
-    /// decided within about 20 m; 0.25 until 2026-12-05).
+    /// takes the near step (finite, >= 0; 0: never). Default 1.0 (every fourth column
+    /// decided within about 40 m, so in every row the square needs; 0.5 until 2026-12-07,
+    /// 0.25 until 2026-12-05).
     pub near_column_span_m: f32,
     /// Clip of the Sobel pre-filter, gray levels (1..=63).
     pub prefilter_cap: u8,
@@ -165,23 +167,24 @@ pub struct StereoParams {
     /// Grade of the relief above with depth, metres per metre (finite, in [0, 10]).
     pub relief_above_grade: f32,
     /// Grade of the terrain searched in the horizon rows, metres per metre of depth
-    /// (finite, in [0, 10]; 0: off, the default): the rows whose flat ground lies beyond
-    /// `max_ground_range_m` (or above the horizon) search every point within the range
-    /// that stands at most `min(relief_above_near_m, relief_above_m) + horizon_grade Z`
-    /// above the ground under the rover, with no cap at `relief_above_m`: terrain rising
-    /// toward the skyline, seen above the flat ground's horizon. Costs pixel-disparities
-    /// (0.3: about +48 % for the default rig; `docs/stereo.md`, "Rising terrain in the
-    /// horizon rows"); the sky next to the skyline matches the skyline's edge, so pair it
-    /// with the range stage's `RangeOptions::sky_below_gray`.
+    /// (finite, in [0, 10]; 0: off; default 0.3 since 2026-12-07): the rows whose flat
+    /// ground lies beyond `max_ground_range_m` (or above the horizon) search every point
+    /// within the range that stands at most `min(relief_above_near_m, relief_above_m) +
+    /// horizon_grade Z` above the ground under the rover, with no cap at `relief_above_m`:
+    /// terrain rising toward the skyline, seen above the flat ground's horizon. Costs
+    /// pixel-disparities (0.3 at the working size: about +48 %; at level 1,
+    /// `horizon_coarse`, far less: `docs/stereo.md`, "Rising terrain in the horizon rows");
+    /// the sky next to the skyline matches the skyline's edge, so pair it with the range
+    /// stage's `RangeOptions::sky_below_gray`.
     pub horizon_grade: f32,
     /// The horizon rows (with `horizon_grade` on) matched at level 1, the frames reduced by
     /// `2 downsample` both ways: half the columns, rows and disparities of the working size,
     /// `pair_radius_rows_px` rows down, every `column_step`-th column decided; both working
     /// rows of a level row take its depth unscaled (what those rows see is terrain rising
     /// toward the skyline, not flat ground). A quarter pixel there moves a point 20 m away
-    /// by about 4 m: these rows place hills, not centimetres. Off by default; cuts the
-    /// horizon rows' work to about a third (`docs/stereo.md`, "Rising terrain in the
-    /// horizon rows").
+    /// by about 4 m: these rows place hills, not centimetres. On by default since
+    /// 2026-12-07; cuts the horizon rows' work to about a third (`docs/stereo.md`, "Rising
+    /// terrain in the horizon rows").
     pub horizon_coarse: bool,
     /// Deepest relief below the ground under the rover, metres, >= 0: sets the smallest
     /// disparity of each row.
@@ -194,8 +197,9 @@ pub struct StereoParams {
     /// `downsample * 2^L` ([`scale`]); 0 matches every row at the working size.
     pub scale_levels: u8,
     /// A row is matched at a coarser level only where a quarter-pixel disparity error there
-    /// moves its flat ground by at most this, metres (finite, >= 0). Default 0.25 (0.175
-    /// until 2026-12-05).
+    /// moves its flat ground by at most this, metres (finite, >= 0). Default 0.45 (level 1
+    /// within about 6.6 m, level 2 within 4.6 m; 0.25 until 2026-12-07, 0.175 until
+    /// 2026-12-05).
     pub scale_error_m: f32,
 }
 
@@ -214,7 +218,12 @@ impl Default for StereoParams {
     /// 0.903 to 0.897, and the OpenCV benchmark's bad-pixel rate (working-size pixels) is
     /// 1.38x SGBM's (`docs/stereo.md`, "The stage within 40 M"). Windows follow the
     /// ground (`ground_shear`, since 2026-12-06): 0.76x SGBM's bad-pixel rate, the stage
-    /// at 39.66 M (`docs/stereo.md`, "Windows that follow the ground").
+    /// at 39.66 M (`docs/stereo.md`, "Windows that follow the ground"). Since 2026-12-07
+    /// the horizon rows search terrain rising 0.3 m per metre of depth, matched at level 1,
+    /// and the near rows are coarser (quarter pixel 0.45 m, pairs where a pair spans 1.5 m,
+    /// fourth columns where four span 1 m): the fix's accuracy with its own stereo comes
+    /// within 0.03 of truth depth's, the stage at 39.1 M (`docs/stereo.md`, "Rising terrain
+    /// in the horizon rows").
     fn default() -> Self {
         Self {
             baseline_m: DEFAULT_BASELINE_M,
@@ -222,11 +231,11 @@ impl Default for StereoParams {
             radius_px: 3,
             row_factor: 1,
             radius_rows_px: 3,
-            pair_rows_m: 0.5,
+            pair_rows_m: 1.5,
             pair_radius_rows_px: 2,
             column_step: 2,
             near_column_step: 4,
-            near_column_span_m: 0.5,
+            near_column_span_m: 1.0,
             prefilter_cap: 31,
             uniqueness_pct: 10,
             min_gap_per_px: 1,
@@ -239,12 +248,12 @@ impl Default for StereoParams {
             relief_above_m: 1.0,
             relief_above_near_m: 0.5,
             relief_above_grade: 0.1,
-            horizon_grade: 0.0,
-            horizon_coarse: false,
+            horizon_grade: 0.3,
+            horizon_coarse: true,
             relief_below_m: 2.0,
             attitude_margin_deg: 2.0,
             scale_levels: 2,
-            scale_error_m: 0.25,
+            scale_error_m: 0.45,
         }
     }
 }

@@ -414,6 +414,15 @@ impl Scales {
 mod tests {
     use super::*;
 
+    /// The default rig without the horizon rows (`horizon_grade` 0), whose levels and
+    /// pairs these tests check (the horizon rows have their own test).
+    fn flat_rig() -> StereoParams {
+        StereoParams {
+            horizon_grade: 0.0,
+            ..StereoParams::default()
+        }
+    }
+
     #[test]
     fn near_rows_go_coarse_only_where_a_quarter_pixel_stays_below_the_limit() {
         let cam = CameraParams::default();
@@ -421,7 +430,7 @@ mod tests {
             row_factor: 1,
             scale_error_m: 0.125,
             pair_rows_m: 0.0,
-            ..StereoParams::default()
+            ..flat_rig()
         };
         let s = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |_| true);
         assert!(s.used() >= 2, "the rig uses a coarser level");
@@ -471,7 +480,7 @@ mod tests {
         for pair_rows_m in [0.0, 0.5] {
             let p = StereoParams {
                 pair_rows_m,
-                ..StereoParams::default()
+                ..flat_rig()
             };
             let s = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |_| true);
             for l in 0..SLOTS + 1 {
@@ -489,7 +498,7 @@ mod tests {
             scale_error_m: 0.3,
             row_factor: 1,
             pair_rows_m: 0.0,
-            ..StereoParams::default()
+            ..flat_rig()
         };
         let s = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |_| true);
         assert_eq!(s.used(), 3);
@@ -516,7 +525,7 @@ mod tests {
         let cam = CameraParams::default();
         let p = StereoParams {
             row_factor: 2,
-            ..StereoParams::default()
+            ..flat_rig()
         };
         let s = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |_| true);
         assert_eq!((s.rows_per(0), s.rows_per(1), s.rows_per(2)), (2, 4, 8));
@@ -565,9 +574,12 @@ mod tests {
     #[test]
     fn near_rows_of_the_working_size_go_in_pairs_where_a_pair_spans_little_ground() {
         let cam = CameraParams::default();
+        // Level 1 from a quarter pixel of 0.25 m (the default until 2026-12-07), so the
+        // pairs have rows above it.
         let p = StereoParams {
             pair_rows_m: 0.25,
-            ..StereoParams::default()
+            scale_error_m: 0.25,
+            ..flat_rig()
         };
         let s = Scales::new(&cam, &p, &Attitude::level(cam.tilt_deg), |_| true);
         let (a, b) = s.rows_of_level(PAIRED);

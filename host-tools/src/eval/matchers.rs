@@ -278,8 +278,8 @@ pub fn matcher_by_name(name: &str) -> anyhow::Result<MatcherSpec> {
             spec.distance_weighting_px = Some(20);
         } else if p == "eq" {
             spec.equalize_rings = true;
-        } else if p.starts_with("hc") {
-            spec.highpass_m = Some(num("hc")?);
+        } else if p.starts_with("hp") {
+            spec.highpass_m = Some(num("hp")?);
         } else if p.starts_with('r') {
             spec.max_range_m = Some(num("r")?);
         } else {
@@ -338,15 +338,18 @@ mod tests {
         let c = fix_config_by_name("fix-rc6-fn3").unwrap();
         assert_eq!(c.stereo.matcher.radius_px, 6);
         assert_eq!(c.range.fill_min_neighbours, 3);
-        let c = fix_config_by_name("fix-hg0.3-sk8").unwrap();
-        assert_eq!(c.stereo.matcher.horizon_grade, 0.3);
-        assert_eq!(c.range.sky_below_gray, 8);
-        assert_eq!(d.stereo.matcher.horizon_grade, 0.0);
-        assert!(!d.stereo.matcher.horizon_coarse);
-        assert!(
-            fix_config_by_name("fix-hg0.3-hl1").is_some_and(|c| c.stereo.matcher.horizon_coarse)
-        );
-        assert_eq!(d.range.sky_below_gray, 0);
+        // The horizon rows at level 1 and the sky rule: on by default, off by name.
+        assert_eq!(d.stereo.matcher.horizon_grade, 0.3);
+        assert!(d.stereo.matcher.horizon_coarse);
+        assert_eq!(d.range.sky_below_gray, 8);
+        let c = fix_config_by_name("fix-hg0-hl0-sk0").unwrap();
+        assert_eq!(c.stereo.matcher.horizon_grade, 0.0);
+        assert!(!c.stereo.matcher.horizon_coarse);
+        assert_eq!(c.range.sky_below_gray, 0);
+        let c = fix_config_by_name("fix-hg0.2-hl1-sk12").unwrap();
+        assert_eq!(c.stereo.matcher.horizon_grade, 0.2);
+        assert!(c.stereo.matcher.horizon_coarse);
+        assert_eq!(c.range.sky_below_gray, 12);
         // Options on the other bases too.
         let c = fix_config_by_name("fix-ncc-p4").unwrap();
         assert_eq!((c.refine.mode, c.refine.peaks), (RefineMode::Ncc, 4));
