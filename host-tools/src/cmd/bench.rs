@@ -76,9 +76,9 @@ pub struct Args {
     /// many metres per metre of depth (0: off; docs/stereo.md).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().horizon_grade)]
     horizon_grade: f32,
-    /// stereo: the horizon rows matched at half the working size (with --horizon-grade
-    /// above 0; docs/stereo.md).
-    #[arg(long)]
+    /// stereo: the horizon rows matched at level 1, half the working size (with
+    /// --horizon-grade above 0; true/false; docs/stereo.md).
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().horizon_coarse, action = clap::ArgAction::Set)]
     horizon_coarse: bool,
     /// stereo: relief searched below the ground under the rover, metres.
     #[arg(long, allow_negative_numbers = true, default_value_t = orbfix::stereo::StereoParams::default().relief_below_m)]
@@ -171,18 +171,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 }
 
-fn bench_stereo(args: &Args) -> anyhow::Result<()> {
-    let (w, h) = super::generate::parse_size(&args.size)?;
-    let mut render = RenderOptions::default();
-    render.camera.width_px = w;
-    render.camera.height_px = h;
-    render.noise_sigma = args.noise;
-    let rig = orbfix_host::render::stereo::StereoRender {
-        baseline_m: args.baseline,
-        right_gain: args.right_gain,
-    };
-    rig.validate()?;
-    let params = orbfix::stereo::StereoParams {
+/// The matcher settings of `bench stereo`'s options (each defaults to the core's default).
+fn stereo_params(args: &Args) -> orbfix::stereo::StereoParams {
+    orbfix::stereo::StereoParams {
         downsample: args.downsample,
         radius_px: args.radius,
         uniqueness_pct: args.uniqueness,
@@ -208,7 +199,21 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         subpixel: args.subpixel.into(),
         ground_shear: args.ground_shear,
         ..Default::default()
+    }
+}
+
+fn bench_stereo(args: &Args) -> anyhow::Result<()> {
+    let (w, h) = super::generate::parse_size(&args.size)?;
+    let mut render = RenderOptions::default();
+    render.camera.width_px = w;
+    render.camera.height_px = h;
+    render.noise_sigma = args.noise;
+    let rig = orbfix_host::render::stereo::StereoRender {
+        baseline_m: args.baseline,
+        right_gain: args.right_gain,
     };
+    rig.validate()?;
+    let params = stereo_params(args);
     let opts = orbfix_host::stereo_bench::StereoBenchOptions {
         seed: args.seed,
         locations: args.locations,
@@ -548,5 +553,28 @@ impl From<SubPixelArg> for orbfix::stereo::SubPixel {
             SubPixelArg::Parabola => Self::Parabola,
             SubPixelArg::Equiangular => Self::Equiangular,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    #[test]
+    fn bench_stereo_defaults_are_the_cores() {
+        let cli = Cli::try_parse_from(["bench", "stereo"]).unwrap();
+        assert_eq!(
+            stereo_params(&cli.args),
+            orbfix::stereo::StereoParams::default()
+        );
+        let cli = Cli::try_parse_from(["bench", "stereo", "--horizon-coarse", "false"]).unwrap();
+        assert!(!stereo_params(&cli.args).horizon_coarse);
     }
 }
