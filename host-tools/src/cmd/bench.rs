@@ -42,6 +42,23 @@ pub struct Args {
     /// stereo: Gaussian sensor noise of each camera, gray levels.
     #[arg(long, allow_negative_numbers = true, value_parser = crate::cmd::num::non_negative_f64, default_value_t = 1.0)]
     noise: f64,
+    /// stereo: output band of the core, rows.
+    #[arg(long, default_value_t = 16)]
+    band_rows: usize,
+    /// stereo: output folder of the benchmark set (pairs, truth, masks, core disparity,
+    /// index.json) that scripts/stereo_bench.py scores.
+    #[arg(long, default_value = ".cache/stereo-bench")]
+    out: std::path::PathBuf,
+    // stereo: the matcher's settings (each defaults to the core's).
+    #[command(flatten)]
+    matcher: StereoMatcherArgs,
+}
+
+/// The stereo matcher's options of `bench stereo`, a group of their own (clap builds each
+/// group's argument table in its own function, which keeps every frame small).
+#[derive(clap::Args, Debug)]
+#[command(next_help_heading = "Stereo matcher (bench stereo; defaults: the core's)")]
+struct StereoMatcherArgs {
     /// stereo: reduction of the frames before matching (1..=4).
     #[arg(long, default_value_t = 2)]
     downsample: u8,
@@ -126,13 +143,6 @@ pub struct Args {
     /// stereo: windows that follow the flat ground down the image (true/false).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().ground_shear, action = clap::ArgAction::Set)]
     ground_shear: bool,
-    /// stereo: output band of the core, rows.
-    #[arg(long, default_value_t = 16)]
-    band_rows: usize,
-    /// stereo: output folder of the benchmark set (pairs, truth, masks, core disparity,
-    /// index.json) that scripts/stereo_bench.py scores.
-    #[arg(long, default_value = ".cache/stereo-bench")]
-    out: std::path::PathBuf,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -174,30 +184,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// The matcher settings of `bench stereo`'s options (each defaults to the core's default).
 fn stereo_params(args: &Args) -> orbfix::stereo::StereoParams {
     orbfix::stereo::StereoParams {
-        downsample: args.downsample,
-        radius_px: args.radius,
-        uniqueness_pct: args.uniqueness,
-        min_gap_per_px: args.min_gap,
-        min_support: args.min_support,
-        gap_fill_px: args.gap_fill,
-        relief_above_m: args.relief_above,
-        relief_above_near_m: args.relief_above_near,
-        relief_above_grade: args.relief_above_grade,
-        horizon_grade: args.horizon_grade,
-        horizon_coarse: args.horizon_coarse,
-        relief_below_m: args.relief_below,
-        attitude_margin_deg: args.attitude_margin,
-        scale_levels: args.scale_levels,
-        scale_error_m: args.scale_error,
-        row_factor: args.row_factor,
-        column_step: args.column_step,
-        near_column_step: args.near_column_step,
-        near_column_span_m: args.near_column_span,
-        pair_rows_m: args.pair_rows,
-        pair_radius_rows_px: args.pair_radius_rows,
-        radius_rows_px: args.radius_rows,
-        subpixel: args.subpixel.into(),
-        ground_shear: args.ground_shear,
+        downsample: args.matcher.downsample,
+        radius_px: args.matcher.radius,
+        uniqueness_pct: args.matcher.uniqueness,
+        min_gap_per_px: args.matcher.min_gap,
+        min_support: args.matcher.min_support,
+        gap_fill_px: args.matcher.gap_fill,
+        relief_above_m: args.matcher.relief_above,
+        relief_above_near_m: args.matcher.relief_above_near,
+        relief_above_grade: args.matcher.relief_above_grade,
+        horizon_grade: args.matcher.horizon_grade,
+        horizon_coarse: args.matcher.horizon_coarse,
+        relief_below_m: args.matcher.relief_below,
+        attitude_margin_deg: args.matcher.attitude_margin,
+        scale_levels: args.matcher.scale_levels,
+        scale_error_m: args.matcher.scale_error,
+        row_factor: args.matcher.row_factor,
+        column_step: args.matcher.column_step,
+        near_column_step: args.matcher.near_column_step,
+        near_column_span_m: args.matcher.near_column_span,
+        pair_rows_m: args.matcher.pair_rows,
+        pair_radius_rows_px: args.matcher.pair_radius_rows,
+        radius_rows_px: args.matcher.radius_rows,
+        subpixel: args.matcher.subpixel.into(),
+        ground_shear: args.matcher.ground_shear,
         ..Default::default()
     }
 }
