@@ -60,10 +60,10 @@ pub struct Args {
 #[command(next_help_heading = "Stereo matcher (bench stereo; defaults: the core's)")]
 struct StereoMatcherArgs {
     /// stereo: reduction of the frames before matching (1..=4).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().downsample)]
     downsample: u8,
     /// stereo: aggregation radius, pixels at the working size (window 2r + 1).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().radius_px)]
     radius: u8,
     /// stereo: the runner-up must be this many percent worse than the winner (0..=50).
     #[arg(long, default_value_t = orbfix::stereo::StereoParams::default().uniqueness_pct)]
@@ -181,34 +181,36 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 }
 
-/// The matcher settings of `bench stereo`'s options (each defaults to the core's default).
-fn stereo_params(args: &Args) -> orbfix::stereo::StereoParams {
-    orbfix::stereo::StereoParams {
-        downsample: args.matcher.downsample,
-        radius_px: args.matcher.radius,
-        uniqueness_pct: args.matcher.uniqueness,
-        min_gap_per_px: args.matcher.min_gap,
-        min_support: args.matcher.min_support,
-        gap_fill_px: args.matcher.gap_fill,
-        relief_above_m: args.matcher.relief_above,
-        relief_above_near_m: args.matcher.relief_above_near,
-        relief_above_grade: args.matcher.relief_above_grade,
-        horizon_grade: args.matcher.horizon_grade,
-        horizon_coarse: args.matcher.horizon_coarse,
-        relief_below_m: args.matcher.relief_below,
-        attitude_margin_deg: args.matcher.attitude_margin,
-        scale_levels: args.matcher.scale_levels,
-        scale_error_m: args.matcher.scale_error,
-        row_factor: args.matcher.row_factor,
-        column_step: args.matcher.column_step,
-        near_column_step: args.matcher.near_column_step,
-        near_column_span_m: args.matcher.near_column_span,
-        pair_rows_m: args.matcher.pair_rows,
-        pair_radius_rows_px: args.matcher.pair_radius_rows,
-        radius_rows_px: args.matcher.radius_rows,
-        subpixel: args.matcher.subpixel.into(),
-        ground_shear: args.matcher.ground_shear,
-        ..Default::default()
+impl StereoMatcherArgs {
+    /// The matcher settings of these options (each defaults to the core's default).
+    fn params(&self) -> orbfix::stereo::StereoParams {
+        orbfix::stereo::StereoParams {
+            downsample: self.downsample,
+            radius_px: self.radius,
+            uniqueness_pct: self.uniqueness,
+            min_gap_per_px: self.min_gap,
+            min_support: self.min_support,
+            gap_fill_px: self.gap_fill,
+            relief_above_m: self.relief_above,
+            relief_above_near_m: self.relief_above_near,
+            relief_above_grade: self.relief_above_grade,
+            horizon_grade: self.horizon_grade,
+            horizon_coarse: self.horizon_coarse,
+            relief_below_m: self.relief_below,
+            attitude_margin_deg: self.attitude_margin,
+            scale_levels: self.scale_levels,
+            scale_error_m: self.scale_error,
+            row_factor: self.row_factor,
+            column_step: self.column_step,
+            near_column_step: self.near_column_step,
+            near_column_span_m: self.near_column_span,
+            pair_rows_m: self.pair_rows,
+            pair_radius_rows_px: self.pair_radius_rows,
+            radius_rows_px: self.radius_rows,
+            subpixel: self.subpixel.into(),
+            ground_shear: self.ground_shear,
+            ..Default::default()
+        }
     }
 }
 
@@ -223,7 +225,7 @@ fn bench_stereo(args: &Args) -> anyhow::Result<()> {
         right_gain: args.right_gain,
     };
     rig.validate()?;
-    let params = stereo_params(args);
+    let params = args.matcher.params();
     let opts = orbfix_host::stereo_bench::StereoBenchOptions {
         seed: args.seed,
         locations: args.locations,
@@ -581,10 +583,10 @@ mod tests {
     fn bench_stereo_defaults_are_the_cores() {
         let cli = Cli::try_parse_from(["bench", "stereo"]).unwrap();
         assert_eq!(
-            stereo_params(&cli.args),
+            cli.args.matcher.params(),
             orbfix::stereo::StereoParams::default()
         );
         let cli = Cli::try_parse_from(["bench", "stereo", "--horizon-coarse", "false"]).unwrap();
-        assert!(!stereo_params(&cli.args).horizon_coarse);
+        assert!(!cli.args.matcher.params().horizon_coarse);
     }
 }
