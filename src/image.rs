@@ -1,4 +1,5 @@
-//! Borrowed 8-bit grayscale image views (row-major, explicit stride in bytes).
+//! Borrowed image views (row-major, explicit stride): 8-bit gray frames and, through the same
+//! [`Plane`], the `u16` depth images.
 //!
 //! Frames and maps may live in external memory: views borrow, they never copy.
 
@@ -59,24 +60,30 @@ fn check(len: usize, width: usize, height: usize, stride: usize) -> Result<(), I
     Ok(())
 }
 
-/// A borrowed, read-only 8-bit grayscale image.
+/// A borrowed, read-only image of `T` pixels (row-major; `stride` in elements, which are bytes
+/// for [`ImageView`]). One implementation for the gray frames ([`ImageView`], `u8`) and the
+/// depth images ([`crate::reproject::DepthView`], `u16` depths).
 #[derive(Clone, Copy, Debug)]
-pub struct ImageView<'a> {
-    data: &'a [u8],
+pub struct Plane<'a, T> {
+    data: &'a [T],
     width: usize,
     height: usize,
     stride: usize,
 }
 
-impl<'a> ImageView<'a> {
+/// A borrowed, read-only 8-bit grayscale image (`stride` in bytes).
+pub type ImageView<'a> = Plane<'a, u8>;
+
+impl<'a, T: Copy> Plane<'a, T> {
     /// A tightly packed image (`stride == width`).
-    pub fn new(data: &'a [u8], width: usize, height: usize) -> Result<Self, ImageError> {
+    pub fn new(data: &'a [T], width: usize, height: usize) -> Result<Self, ImageError> {
         Self::with_stride(data, width, height, width)
     }
 
-    /// An image whose rows start `stride` bytes apart.
+    /// An image whose rows start `stride` elements apart. Errors: a zero width or height,
+    /// a stride below the width, a buffer shorter than `stride * (height - 1) + width`.
     pub fn with_stride(
-        data: &'a [u8],
+        data: &'a [T],
         width: usize,
         height: usize,
         stride: usize,
@@ -100,18 +107,18 @@ impl<'a> ImageView<'a> {
         self.height
     }
 
-    /// Bytes between the starts of two rows.
+    /// Elements between the starts of two rows (bytes for [`ImageView`]).
     pub fn stride(&self) -> usize {
         self.stride
     }
 
     /// The underlying buffer (rows `stride` apart).
-    pub fn data(&self) -> &'a [u8] {
+    pub fn data(&self) -> &'a [T] {
         self.data
     }
 
-    /// Row `y` (exactly `width` bytes), or `None` outside the image.
-    pub fn row(&self, y: usize) -> Option<&'a [u8]> {
+    /// Row `y` (exactly `width` pixels), or `None` outside the image.
+    pub fn row(&self, y: usize) -> Option<&'a [T]> {
         if y >= self.height {
             return None;
         }
@@ -120,7 +127,7 @@ impl<'a> ImageView<'a> {
     }
 
     /// Pixel at column `x`, row `y`, or `None` outside the image.
-    pub fn get(&self, x: usize, y: usize) -> Option<u8> {
+    pub fn get(&self, x: usize, y: usize) -> Option<T> {
         if x >= self.width {
             return None;
         }
@@ -128,7 +135,7 @@ impl<'a> ImageView<'a> {
     }
 
     /// A rectangular sub-view (shares the buffer), or `None` if it does not fit.
-    pub fn sub(&self, x: usize, y: usize, width: usize, height: usize) -> Option<ImageView<'a>> {
+    pub fn sub(&self, x: usize, y: usize, width: usize, height: usize) -> Option<Self> {
         let fits = |o: usize, n: usize, limit: usize| o.checked_add(n).is_some_and(|e| e <= limit);
         if width == 0 || height == 0 || !fits(x, width, self.width) || !fits(y, height, self.height)
         {
@@ -136,7 +143,7 @@ impl<'a> ImageView<'a> {
         }
         let start = y * self.stride + x;
         let data = self.data.get(start..)?;
-        ImageView::with_stride(data, width, height, self.stride).ok()
+        Self::with_stride(data, width, height, self.stride).ok()
     }
 }
 
@@ -178,7 +185,7 @@ impl<'a> ImageViewMut<'a> {
 
     /// Read-only view of the same pixels.
     pub fn as_view(&self) -> ImageView<'_> {
-        ImageView {
+        Plane {
             data: self.data,
             width: self.width,
             height: self.height,

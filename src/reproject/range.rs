@@ -29,7 +29,7 @@
 use super::relief::{ReliefCells, ReliefGrid, RELIEF_FRAC_BITS};
 use super::{classify_frame, Buffer, FrameStatus, GridSpec, ReprojectError};
 use crate::camera::{Camera, CameraParams, RoverPose, View};
-use crate::image::{ImageError, ImageView};
+use crate::image::{ImageView, Plane};
 
 /// Default depth unit: millimetres (`u16` depths up to 65.535 m).
 pub const DEFAULT_DEPTH_SCALE_M: f32 = 0.001;
@@ -58,77 +58,9 @@ pub const fn range_scratch_bytes(n: usize) -> usize {
 
 /// A borrowed depth image: `u16` depth along the optical axis per pixel, in units of
 /// [`RangeOptions::depth_scale_m`] (millimetres by default), 0 = no depth. Row-major;
-/// `stride` is in elements (`u16`), not bytes.
-#[derive(Clone, Copy, Debug)]
-pub struct DepthView<'a> {
-    data: &'a [u16],
-    width: usize,
-    height: usize,
-    stride: usize,
-}
-
-impl<'a> DepthView<'a> {
-    /// A tightly packed depth image (`stride == width`).
-    pub fn new(data: &'a [u16], width: usize, height: usize) -> Result<Self, ImageError> {
-        Self::with_stride(data, width, height, width)
-    }
-
-    /// A depth image whose rows start `stride` elements apart. Errors as
-    /// [`ImageView::with_stride`] (sizes in elements).
-    pub fn with_stride(
-        data: &'a [u16],
-        width: usize,
-        height: usize,
-        stride: usize,
-    ) -> Result<Self, ImageError> {
-        if width == 0 || height == 0 {
-            return Err(ImageError::ZeroSize);
-        }
-        if stride < width {
-            return Err(ImageError::StrideTooSmall { stride, width });
-        }
-        let needed = stride
-            .checked_mul(height - 1)
-            .and_then(|n| n.checked_add(width))
-            .unwrap_or(usize::MAX);
-        if data.len() < needed {
-            return Err(ImageError::BufferTooSmall {
-                needed,
-                got: data.len(),
-            });
-        }
-        Ok(Self {
-            data,
-            width,
-            height,
-            stride,
-        })
-    }
-
-    /// Width, pixels.
-    pub fn width(&self) -> usize {
-        self.width
-    }
-
-    /// Height, pixels.
-    pub fn height(&self) -> usize {
-        self.height
-    }
-
-    /// Elements between the starts of two rows.
-    pub fn stride(&self) -> usize {
-        self.stride
-    }
-
-    /// Row `y` (exactly `width` depths), or `None` outside the image.
-    pub fn row(&self, y: usize) -> Option<&'a [u16]> {
-        if y >= self.height {
-            return None;
-        }
-        let start = y * self.stride;
-        self.data.get(start..start + self.width)
-    }
-}
+/// `stride` is in elements (`u16`), not bytes. The same view as the gray frames'
+/// ([`Plane`]), with its checks.
+pub type DepthView<'a> = Plane<'a, u16>;
 
 /// Settings of the range reprojection.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1211,6 +1143,7 @@ const fn scratch_words(halves: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::image::ImageError;
 
     #[test]
     fn relief_pass_samples_evenly_on_the_ground() {
