@@ -46,19 +46,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        a.x.is_finite() && a.y.is_finite(),
-        "--x and --y must be finite metres"
-    );
-    anyhow::ensure!(
-        a.m_per_px.is_finite() && a.m_per_px > 0.0 && a.size_m.is_finite() && a.size_m > 0.0,
-        "--size-m and --m-per-px must be positive metres"
-    );
-    let n = (a.size_m / a.m_per_px).round() as usize;
-    anyhow::ensure!(
-        (8..=16384).contains(&n),
-        "the rasters would be {n} px wide: choose --size-m / --m-per-px between 8 and 16384"
-    );
+    let n = super::square_raster_px(a.x, a.y, a.size_m, a.m_per_px, "the rasters")?;
     let sun = Sun::new(a.sun_elevation, a.sun_azimuth)
         .map_err(|e| anyhow::anyhow!("{e} (elevation 0-90 deg, azimuth 0-360 deg)"))?;
     let side = n as f64 * a.m_per_px;

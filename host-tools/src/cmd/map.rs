@@ -69,19 +69,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        a.x.is_finite() && a.y.is_finite(),
-        "--x and --y must be finite metres"
-    );
-    anyhow::ensure!(
-        a.m_per_px.is_finite() && a.m_per_px > 0.0 && a.size_m.is_finite() && a.size_m > 0.0,
-        "--size-m and --m-per-px must be positive"
-    );
-    let px = (a.size_m / a.m_per_px).round() as usize;
-    anyhow::ensure!(
-        (8..=16384).contains(&px),
-        "the map would be {px} px wide: choose --size-m / --m-per-px between 8 and 16384"
-    );
+    let px = super::square_raster_px(a.x, a.y, a.size_m, a.m_per_px, "the map")?;
     // The product's checks first: a bad weight file or output is refused before the rendering.
     let weights = match &a.product {
         Some(path) => {
