@@ -21,6 +21,8 @@ case "$DEPTH" in
   *) echo "fix-results.sh: depth must be stereo, truth or none (got '$DEPTH')" >&2; exit 2 ;;
 esac
 # $ORBFIX_RESULTS_DIR / $ORBFIX_RESULTS_MD: other folder and page (e.g. for a shorter run).
+# $ORBFIX_AGAINST: folders of reports of the same stops (e.g. truth depth's, for a stereo run)
+#   that the page pairs stop by stop with these (differences with 95 % intervals).
 OUT="${ORBFIX_RESULTS_DIR:-out/fix-results-$REP}"
 MD="${ORBFIX_RESULTS_MD:-docs/fix-results-$REP.md}"
 mkdir -p "$OUT"
@@ -39,6 +41,13 @@ for seed in $SEEDS; do
       --depth "$DEPTH" --json "$f" --quiet
   done
 done
-"$BIN" fix-report --dir "$OUT" --out "$MD" \
+# The page quotes the command with the environment that shaped it.
+CMD="bash scripts/fix-results.sh $STOPS \"$SEEDS\" $DEPTH"
+for v in ORBFIX_AGAINST ORBFIX_RESULTS_MD ORBFIX_RESULTS_DIR; do
+  [ -n "${!v:-}" ] && CMD="$v=\"${!v}\" $CMD"
+done
+AGAINST=()
+for d in ${ORBFIX_AGAINST:-}; do AGAINST+=(--against "$d"); done
+"$BIN" fix-report --dir "$OUT" "${AGAINST[@]}" --out "$MD" \
   --title "The one fix: accuracy on unseen world seeds ($DEPTH depth)" \
-  --command "bash scripts/fix-results.sh $STOPS \"$SEEDS\" $DEPTH"
+  --command "$CMD"

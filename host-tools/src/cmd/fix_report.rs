@@ -1,7 +1,8 @@
 //! `orbfix fix-report`: pools `orbfix eval` reports of several world seeds into the table a
 //! user of the fix reads (shares within 1 m and 5 m with 95 % intervals, median and p95
 //! error, wrong-but-confident fixes, bound coverage, the study's 441-window R@k), per
-//! matcher and condition.
+//! matcher and condition; with `--against`, the same stops paired with another set of reports
+//! (e.g. the fix's own stereo depth against truth depth), as differences with intervals.
 
 use anyhow::Context;
 use orbfix_host::fsutil::write_atomic;
@@ -12,10 +13,20 @@ use std::path::PathBuf;
 
 /// Pool eval reports (JSON, one file per seed and condition) into one markdown table.
 #[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:\n  \
+    orbfix fix-report --dir out/fix-results-stereo --out docs/fix-results-stereo.md\n  \
+    orbfix fix-report --dir out/a/stereo --dir out/b/stereo --against out/a/range \\\n    \
+    --against out/b/range --out out/pooled.md   (two sets pooled, paired with truth depth)")]
 pub struct Args {
-    /// Folder of the reports (`*.json` written by `orbfix eval --json`).
+    /// Folder of the reports (`*.json` written by `orbfix eval --json`); repeat to pool
+    /// several folders.
+    #[arg(long, required = true)]
+    pub dir: Vec<PathBuf>,
+    /// Folder of reports of the same stops to compare with (e.g. truth depth); repeatable.
+    /// Stops are paired by seed, condition and stop number (their true positions must
+    /// agree), per matcher and condition present in both.
     #[arg(long)]
-    pub dir: PathBuf,
+    pub against: Vec<PathBuf>,
     /// Output markdown file.
     #[arg(long)]
     pub out: PathBuf,
@@ -52,6 +63,8 @@ fn quantile(v: &mut [f64], q: f64) -> f64 {
 #[derive(Default)]
 struct Pool {
     seeds: Vec<u64>,
+    /// Per stop, aligned with `errors`: (seed, stop number, true east and north, mm).
+    stops: Vec<(u64, u64, i64, i64)>,
     errors: Vec<f64>,
     ranks: Vec<usize>,
     ok: Vec<(f64, f64)>,
@@ -60,19 +73,26 @@ struct Pool {
     config: String,
 }
 
-pub fn run(a: Args) -> anyhow::Result<()> {
-    let mut pools: BTreeMap<(String, String), Pool> = BTreeMap::new();
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&a.dir)
-        .with_context(|| format!("cannot read the report folder {}", a.dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "json"))
-        .collect();
-    files.sort();
-    anyhow::ensure!(
-        !files.is_empty(),
-        "no .json reports in {}: run `orbfix eval --json` first",
-        a.dir.display()
-    );
+type Pools = BTreeMap<(String, String), Pool>;
+
+/// The reports of `dirs`, pooled per (matcher, condition), and the files read.
+fn load(dirs: &[PathBuf]) -> anyhow::Result<(Pools, Vec<PathBuf>)> {
+    let mut pools: Pools = BTreeMap::new();
+    let mut files: Vec<PathBuf> = Vec::new();
+    for dir in dirs {
+        let mut here: Vec<PathBuf> = std::fs::read_dir(dir)
+            .with_context(|| format!("cannot read the report folder {}", dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "json"))
+            .collect();
+        anyhow::ensure!(
+            !here.is_empty(),
+            "no .json reports in {}: run `orbfix eval --json` first",
+            dir.display()
+        );
+        here.sort();
+        files.extend(here);
+    }
     for f in &files {
         let text =
             std::fs::read_to_string(f).with_context(|| format!("cannot read {}", f.display()))?;
@@ -88,7 +108,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 r["condition"].as_str().unwrap_or("?").to_string(),
             );
             let p = pools.entry(key).or_default();
-            if let Some(s) = r["seed"].as_u64() {
+            let seed = r["seed"].as_u64();
+            if let Some(s) = seed {
                 if !p.seeds.contains(&s) {
                     p.seeds.push(s);
                 }
@@ -98,6 +119,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             }
             for q in r["per_query"].as_array().into_iter().flatten() {
                 let e = q["error_m"].as_f64().unwrap_or(f64::INFINITY);
+                let mm = |i: usize| {
+                    (q["truth_m"][i].as_f64().unwrap_or(f64::NAN) * 1000.0).round() as i64
+                };
+                p.stops.push((
+                    seed.unwrap_or(u64::MAX),
+                    q["id"].as_u64().unwrap_or(u64::MAX),
+                    mm(0),
+                    mm(1),
+                ));
                 p.errors.push(e);
                 p.ranks
                     .push(q["true_cell_rank"].as_u64().unwrap_or(u64::MAX) as usize);
@@ -111,17 +141,96 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             }
         }
     }
+    Ok((pools, files))
+}
+
+/// One paired comparison of a share (errors within `limit_m`): stops right here only,
+/// right there only, both counted over `n` paired stops.
+#[derive(Debug, PartialEq)]
+struct Paired {
+    n: usize,
+    here: usize,
+    there: usize,
+    only_here: usize,
+    only_there: usize,
+}
+
+impl Paired {
+    /// Pairs the stops of `a` and `b` by (seed, stop number); a stop whose true position
+    /// differs between the two is an error (the reports are not of the same stops).
+    fn new(a: &Pool, b: &Pool, limit_m: f64) -> anyhow::Result<Self> {
+        let theirs: BTreeMap<(u64, u64), (i64, i64, f64)> = b
+            .stops
+            .iter()
+            .zip(&b.errors)
+            .map(|(&(s, i, x, y), &e)| ((s, i), (x, y, e)))
+            .collect();
+        let mut p = Paired {
+            n: 0,
+            here: 0,
+            there: 0,
+            only_here: 0,
+            only_there: 0,
+        };
+        for (&(s, i, x, y), &e) in a.stops.iter().zip(&a.errors) {
+            let Some(&(bx, by, be)) = theirs.get(&(s, i)) else {
+                continue;
+            };
+            anyhow::ensure!(
+                (bx, by) == (x, y),
+                "seed {s} stop {i} is at ({x}, {y}) mm in one report and ({bx}, {by}) mm in \
+                 the other: --against must hold reports of the same stops (same seeds, stop \
+                 counts and conditions)"
+            );
+            let (ra, rb) = (e <= limit_m, be <= limit_m);
+            p.n += 1;
+            p.here += usize::from(ra);
+            p.there += usize::from(rb);
+            p.only_here += usize::from(ra && !rb);
+            p.only_there += usize::from(rb && !ra);
+        }
+        Ok(p)
+    }
+
+    /// The difference of the shares (here minus there) and its 95 % interval (normal
+    /// approximation of the mean of the paired differences).
+    fn difference(&self) -> (f64, f64, f64) {
+        if self.n == 0 {
+            return (f64::NAN, f64::NAN, f64::NAN);
+        }
+        let n = self.n as f64;
+        let d = (self.only_here as f64 - self.only_there as f64) / n;
+        let second = (self.only_here + self.only_there) as f64 / n;
+        let var = ((second - d * d) / (n - 1.0).max(1.0)).max(0.0);
+        let h = 1.96 * var.sqrt();
+        (d, d - h, d + h)
+    }
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let (mut pools, files) = load(&a.dir)?;
+    let against = if a.against.is_empty() {
+        None
+    } else {
+        Some(load(&a.against)?.0)
+    };
+    let dirs = a
+        .dir
+        .iter()
+        .map(|d| format!("`{}`", d.display()))
+        .collect::<Vec<_>>()
+        .join(", ");
     let mut md = String::new();
     writeln!(md, "# {}\n", a.title)?;
     writeln!(
         md,
-        "Regenerate with `{}`. Every number below is from the reports in `{}` ({} files); \
+        "Regenerate with `{}`. Every number below is from the reports in {} ({} files); \
          intervals are Wilson 95 %. Wrong-but-confident: status ok and more than 5 m off. \
          Bound coverage: share of ok fixes within their stated error bound. R@k: the true \
          50 m window among the k best of the study's 441 (windows ranked by the best coarse \
          score in their 12.5 m cell).\n",
         a.command,
-        a.dir.display(),
+        dirs,
         files.len()
     )?;
     writeln!(md, "| matcher | condition | seeds | stops | within 1 m | within 5 m | median m | p95 m | ok | wrong-confident | bound coverage | R@1 | R@5 | R@10 | paths | ms/fix (host) |")?;
@@ -167,6 +276,57 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             configs.insert(m.clone(), p.config.clone());
         }
     }
+    if let Some(other) = &against {
+        let there = a
+            .against
+            .iter()
+            .map(|d| format!("`{}`", d.display()))
+            .collect::<Vec<_>>()
+            .join(", ");
+        writeln!(
+            md,
+            "\nThe same stops paired with the reports in {there} (same matcher and condition): \
+             the share here, there, and here minus there with its 95 % interval (normal \
+             approximation of the paired differences); \"only here / only there\": stops within \
+             the distance in one set of reports and not in the other.\n"
+        )?;
+        let mut rows = Vec::new();
+        for ((m, c), p) in &pools {
+            let Some(q) = other.get(&(m.clone(), c.clone())) else {
+                continue;
+            };
+            let one = Paired::new(p, q, 1.0)?;
+            let five = Paired::new(p, q, 5.0)?;
+            if one.n == 0 {
+                continue;
+            }
+            let cell = |x: &Paired| {
+                let (d, l, h) = x.difference();
+                let n = x.n as f64;
+                (
+                    format!("{:.3} / {:.3}", x.here as f64 / n, x.there as f64 / n),
+                    format!("{d:+.3} [{l:+.3}, {h:+.3}]"),
+                    format!("{} / {}", x.only_here, x.only_there),
+                )
+            };
+            let (a1, b1, c1) = cell(&one);
+            let (a5, b5, c5) = cell(&five);
+            rows.push(format!(
+                "| {m} | {c} | {} | {a1} | {b1} | {c1} | {a5} | {b5} | {c5} |",
+                one.n
+            ));
+        }
+        anyhow::ensure!(
+            !rows.is_empty(),
+            "no stop of these reports has a partner in {there} (same matcher, condition, seed \
+             and stop number): --against needs reports of the same seeds and conditions"
+        );
+        writeln!(md, "| matcher | condition | paired stops | within 1 m here / there | difference [95 %] | only here / only there | within 5 m here / there | difference [95 %] | only here / only there |")?;
+        writeln!(md, "|---|---|---:|---|---|---|---|---|---|")?;
+        for r in rows {
+            writeln!(md, "{r}")?;
+        }
+    }
     if !configs.is_empty() {
         writeln!(
             md,
@@ -184,6 +344,56 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn pool(stops: &[(u64, u64, f64)]) -> Pool {
+        Pool {
+            stops: stops
+                .iter()
+                .map(|&(s, i, _)| (s, i, 1000 * i as i64, 7))
+                .collect(),
+            errors: stops.iter().map(|&(_, _, e)| e).collect(),
+            ..Pool::default()
+        }
+    }
+
+    #[test]
+    fn paired_shares_count_the_same_stops() {
+        let a = pool(&[
+            (2, 0, 0.1),
+            (2, 1, 9.0),
+            (2, 2, 0.5),
+            (3, 0, 3.0),
+            (3, 1, 0.2),
+        ]);
+        let b = pool(&[
+            (2, 0, 0.1),
+            (2, 1, 0.3),
+            (2, 2, 7.0),
+            (3, 0, 0.4),
+            (4, 0, 0.1),
+        ]);
+        let p = Paired::new(&a, &b, 1.0).unwrap();
+        // (3, 1) and (4, 0) have no partner.
+        assert_eq!(
+            p,
+            Paired {
+                n: 4,
+                here: 2,
+                there: 3,
+                only_here: 1,
+                only_there: 2
+            }
+        );
+        let (d, l, h) = p.difference();
+        assert!((d + 0.25).abs() < 1e-12 && l < d && h > d, "{d} {l} {h}");
+        let same = Paired::new(&a, &a, 5.0).unwrap();
+        assert_eq!(same.difference(), (0.0, 0.0, 0.0));
+        // Another stop under the same number is refused.
+        let mut moved = pool(&[(2, 0, 0.1)]);
+        moved.stops[0].3 = 8;
+        let e = Paired::new(&a, &moved, 1.0).unwrap_err().to_string();
+        assert!(e.contains("same stops"), "{e}");
+    }
 
     #[test]
     fn wilson_interval_brackets_the_share() {
