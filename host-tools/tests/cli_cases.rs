@@ -358,3 +358,117 @@ fn eval_refuses_a_texture_mask_without_exact_depth_or_out_of_range() {
     }
     assert!(!p.join("e.json").exists());
 }
+
+/// An eval report of `errors.len()` stops of world seed `seed` (the fields fix-report reads).
+fn eval_report(seed: u64, condition: &str, errors: &[f64]) -> String {
+    let stops: Vec<String> = errors
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            format!(
+                r#"{{"id": {i}, "truth_m": [{}.5, 2000.25], "error_m": {e}, "true_cell_rank": 0,
+                   "dense_s": 0.01, "status": "ok", "error_bound_m": 2.0, "path": "ncc"}}"#,
+                3000 + i
+            )
+        })
+        .collect();
+    format!(
+        r#"[{{"matcher": "fix", "condition": "{condition}", "seed": {seed},
+              "per_query": [{}]}}]"#,
+        stops.join(",")
+    )
+}
+
+#[test]
+fn fix_report_pools_folders_and_pairs_the_same_stops() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    for f in ["a", "b", "ta", "tb", "other"] {
+        std::fs::create_dir(p.join(f)).unwrap();
+    }
+    let w = |f: &str, s: &str| std::fs::write(p.join(f), s).unwrap();
+    // Stereo-like reports of two sets and truth-like ones of the same stops.
+    w(
+        "a/s2.json",
+        &eval_report(2, "cross-sun", &[0.2, 9.0, 0.4, 3.0]),
+    );
+    w(
+        "b/s10.json",
+        &eval_report(10, "cross-sun", &[0.1, 0.3, 40.0, 0.2]),
+    );
+    w(
+        "ta/s2.json",
+        &eval_report(2, "cross-sun", &[0.1, 0.2, 0.3, 0.4]),
+    );
+    w(
+        "tb/s10.json",
+        &eval_report(10, "cross-sun", &[0.1, 0.3, 0.3, 7.0]),
+    );
+    let o = orbfix(
+        p,
+        &[
+            "fix-report",
+            "--dir",
+            "a",
+            "--dir",
+            "b",
+            "--against",
+            "ta",
+            "--against",
+            "tb",
+            "--out",
+            "r.md",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(p.join("r.md")).unwrap();
+    // Pooled: 8 stops, 5 within 1 m, 6 within 5 m; seeds of both folders.
+    assert!(
+        md.contains("| fix | cross-sun | 2, 10 | 8 | 0.625 ["),
+        "{md}"
+    );
+    assert!(md.contains("| 0.750 ["), "{md}");
+    // Paired: within 1 m 5/8 here, 7/8 there (here only: seed 10 stop 3; there only: seed 2
+    // stops 1 and 3, seed 10 stop 2); within 5 m 6/8 against 7/8 (here only: seed 10 stop 3;
+    // there only: seed 2 stop 1, seed 10 stop 2).
+    assert!(
+        md.contains("| fix | cross-sun | 8 | 0.625 / 0.875 | -0.250 ["),
+        "{md}"
+    );
+    assert!(md.contains("| 1 / 3 | 0.750 / 0.875 | -0.125 ["), "{md}");
+    assert!(md.contains("| 1 / 2 |"), "{md}");
+    // Reports of other stops under the same numbers are refused, the page kept.
+    w(
+        "other/s2.json",
+        &eval_report(2, "cross-sun", &[0.1; 4]).replace("2000.25", "9.0"),
+    );
+    refused(
+        p,
+        &[
+            "fix-report",
+            "--dir",
+            "a",
+            "--against",
+            "other",
+            "--out",
+            "r.md",
+        ],
+        1,
+        &["same stops"],
+    );
+    refused(
+        p,
+        &[
+            "fix-report",
+            "--dir",
+            "a",
+            "--against",
+            "b",
+            "--out",
+            "r.md",
+        ],
+        1,
+        &["no stop of these reports has a partner"],
+    );
+    assert_eq!(std::fs::read_to_string(p.join("r.md")).unwrap(), md);
+}
