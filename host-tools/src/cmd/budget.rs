@@ -478,7 +478,7 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     let command = format!(
-        "orbfix budget --target {} --clock-mhz {} --cpi {} --seed {} --stops {} --depth {}{} --json {}{}",
+        "orbfix budget --target {} --clock-mhz {} --cpi {} --seed {} --stops {} --depth {}{} --json {}{}{}",
         est.target,
         args.clock_mhz,
         args.cpi,
@@ -494,6 +494,11 @@ pub fn run(args: Args) -> Result<()> {
             )
         },
         args.json.display(),
+        // Quoted so the page's command writes this page, not the default one.
+        args.md
+            .as_ref()
+            .map(|m| format!(" --md {}", m.display()))
+            .unwrap_or_default(),
         if args.allow_panic {
             " --allow-panic"
         } else {
