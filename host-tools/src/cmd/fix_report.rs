@@ -207,6 +207,14 @@ impl Paired {
     }
 }
 
+/// The folders as the page names them: `a`, `b`.
+fn quoted(dirs: &[PathBuf]) -> String {
+    dirs.iter()
+        .map(|d| format!("`{}`", d.display()))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 pub fn run(a: Args) -> anyhow::Result<()> {
     let (mut pools, files) = load(&a.dir)?;
     let against = if a.against.is_empty() {
@@ -214,12 +222,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     } else {
         Some(load(&a.against)?.0)
     };
-    let dirs = a
-        .dir
-        .iter()
-        .map(|d| format!("`{}`", d.display()))
-        .collect::<Vec<_>>()
-        .join(", ");
+    let dirs = quoted(&a.dir);
     let mut md = String::new();
     writeln!(md, "# {}\n", a.title)?;
     writeln!(
@@ -277,12 +280,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     if let Some(other) = &against {
-        let there = a
-            .against
-            .iter()
-            .map(|d| format!("`{}`", d.display()))
-            .collect::<Vec<_>>()
-            .join(", ");
+        let there = quoted(&a.against);
         writeln!(
             md,
             "\nThe same stops paired with the reports in {there} (same matcher and condition): \
