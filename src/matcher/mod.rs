@@ -167,6 +167,28 @@ impl Grid {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+
+    /// The grid of a dense search: `template` slid over `region` every `step` pixels
+    /// ([`Grid::new`]), and the first [`Grid::len`] scores of `out`, where the search
+    /// writes them ([`MatchError::OutputTooSmall`] when `out` is shorter).
+    pub fn dense<'o>(
+        template: &ImageView<'_>,
+        region: &ImageView<'_>,
+        step: usize,
+        out: &'o mut [f32],
+    ) -> Result<(Self, &'o mut [f32]), MatchError> {
+        let grid = Self::new(
+            template.width(),
+            template.height(),
+            region.width(),
+            region.height(),
+            step,
+        )?;
+        let out = out
+            .get_mut(..grid.len())
+            .ok_or(MatchError::OutputTooSmall { needed: grid.len() })?;
+        Ok((grid, out))
+    }
 }
 
 /// A matcher: scores a template (top-down image + weight mask) against map windows.
@@ -200,16 +222,7 @@ pub trait Matcher {
         out: &mut [f32],
         ops: &mut OpCounts,
     ) -> Result<Grid, MatchError> {
-        let grid = Grid::new(
-            template.width(),
-            template.height(),
-            region.width(),
-            region.height(),
-            step,
-        )?;
-        let out = out
-            .get_mut(..grid.len())
-            .ok_or(MatchError::OutputTooSmall { needed: grid.len() })?;
+        let (grid, out) = Grid::dense(template, region, step, out)?;
         let cols = core::num::NonZeroUsize::new(grid.cols).ok_or(MatchError::WindowTooSmall)?;
         for (i, o) in out.iter_mut().enumerate() {
             let (c, r) = (i % cols, i / cols);

@@ -158,10 +158,7 @@ impl Matcher for CnnMatcher<'_> {
         if weight.width() != w || weight.height() != h {
             return Err(MatchError::MaskSizeMismatch);
         }
-        let grid = Grid::new(w, h, region.width(), region.height(), step)?;
-        let out = out
-            .get_mut(..grid.len())
-            .ok_or(MatchError::OutputTooSmall { needed: grid.len() })?;
+        let (grid, out) = Grid::dense(template, region, step, out)?;
         let mut s = claim(&SCRATCH).ok_or(MatchError::WindowTooSmall)?;
         let CnnScratch {
             arena,

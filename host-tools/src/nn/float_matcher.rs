@@ -125,10 +125,7 @@ impl Matcher for FloatCnnMatcher {
         ops: &mut OpCounts,
     ) -> Result<Grid, MatchError> {
         let (w, h) = (template.width(), template.height());
-        let grid = Grid::new(w, h, region.width(), region.height(), step)?;
-        let out = out
-            .get_mut(..grid.len())
-            .ok_or(MatchError::OutputTooSmall { needed: grid.len() })?;
+        let (grid, out) = Grid::dense(template, region, step, out)?;
         let t = self.template(template, weight)?;
         let mut wins = Vec::with_capacity(grid.len());
         for i in 0..grid.len() {

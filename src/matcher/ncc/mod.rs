@@ -469,16 +469,7 @@ impl Matcher for Ncc {
         ops: &mut OpCounts,
     ) -> Result<Grid, MatchError> {
         check_inputs(template, weight, region)?;
-        let grid = Grid::new(
-            template.width(),
-            template.height(),
-            region.width(),
-            region.height(),
-            step,
-        )?;
-        let out = out
-            .get_mut(..grid.len())
-            .ok_or(MatchError::OutputTooSmall { needed: grid.len() })?;
+        let (grid, out) = Grid::dense(template, region, step, out)?;
         let ts = template_stats(template, weight)?;
         if self.dense_fast(&ts, template, weight, region, step, &grid, out, ops)? {
             return Ok(grid);
