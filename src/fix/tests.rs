@@ -1,5 +1,8 @@
 //! Tests of the one fix's choices: the acceptance confidence by depth source, the bound of a
 //! weak NCC, which refined peak is kept with stereo depth, and settings refused up front.
+//!
+//! Unit tests: the parent declares this module under `#[cfg(test)]`, so it is never part
+//! of a flight build.
 
 use super::*;
 

@@ -1,5 +1,8 @@
 //! Tests of the map product: files written by [`super::write_header`] and its siblings
 //! read back, and damaged files refused.
+//!
+//! Unit tests: the parent declares this module under `#[cfg(test)]`, so it is never part
+//! of a flight build.
 
 use super::*;
 

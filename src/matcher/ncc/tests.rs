@@ -1,5 +1,8 @@
 //! Tests of the masked NCC: gain, offset and hole invariance, flat inputs, and the dense
 //! paths equal to the per-window scores to the bit.
+//!
+//! Unit tests: the parent declares this module under `#[cfg(test)]`, so it is never part
+//! of a flight build.
 
 use super::*;
 

@@ -1,5 +1,8 @@
 //! Tests of the int8 matrix kernels: the per-channel requantization, and the DSP path equal
 //! to the portable kernel.
+//!
+//! Unit tests: the parent declares this module under `#[cfg(test)]`, so it is never part
+//! of a flight build.
 
 use super::super::conv::conv2d_s8_buffer_size;
 use super::super::requant::requantize;

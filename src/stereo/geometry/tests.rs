@@ -1,5 +1,8 @@
 //! Tests of the stereo geometry: the rows' disparity ranges hold the flat ground and the
 //! relief above it, skip the sky, follow the rover's attitude, and the windows follow the ground.
+//!
+//! Unit tests: the parent declares this module under `#[cfg(test)]`, so it is never part
+//! of a flight build.
 
 use super::*;
 use crate::camera::{Camera, RoverPose, View};

@@ -1,5 +1,8 @@
 //! Tests of the band matcher against the scalar reference: the same disparities on random
 //! pairs, and the same image however the stream is cut into bands.
+//!
+//! Unit tests: the parent declares this module under `#[cfg(test)]`, so it is never part
+//! of a flight build.
 
 use super::super::band;
 use super::super::{StereoParams, StereoRig, SubPixel};

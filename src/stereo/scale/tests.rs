@@ -1,5 +1,8 @@
 //! Tests of the stereo scales: which rows are matched at which level, and the groups of
 //! disparities each level keeps.
+//!
+//! Unit tests: the parent declares this module under `#[cfg(test)]`, so it is never part
+//! of a flight build.
 
 use super::*;
 
