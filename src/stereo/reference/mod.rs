@@ -2,12 +2,11 @@
 //! ([`super::swar`]): plain scalar loops over `u16` column sums, kept only for the tests,
 //! which check that [`super::band::run`] gives exactly its output and counts.
 
-use super::band::{BandReport, Output};
+use super::band::{check_inputs, BandReport, Output};
 use super::expand::{expand_row, Passed, RowPlace};
 use super::fill::fill_gaps;
-use super::{Side, StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
+use super::{StereoBuffer, StereoError, StereoRig, DISPARITY_FRAC_BITS, MAX_RADIUS};
 use crate::image::ImageView;
-use crate::reproject::{classify_frame, FrameStatus};
 
 const ONE_Q: u16 = 1 << DISPARITY_FRAC_BITS;
 const RING_MAX: usize = 2 * MAX_RADIUS as usize + 2;
@@ -400,34 +399,6 @@ fn finish_row(
     }
     rep.rejected_speckle += speck;
     valid
-}
-
-/// Checks the inputs of a band; returns the two frames.
-fn check_inputs<'f, 'a>(
-    rig: &StereoRig,
-    left: &'f ImageView<'a>,
-    right: Option<&'f ImageView<'a>>,
-) -> Result<[&'f ImageView<'a>; 2], StereoError> {
-    let right = right.ok_or(StereoError::MissingRight)?;
-    let ls = (left.width(), left.height());
-    let rs = (right.width(), right.height());
-    if ls != rs {
-        return Err(StereoError::PairSize {
-            left: ls,
-            right: rs,
-        });
-    }
-    let expected = (rig.camera.width_px as usize, rig.camera.height_px as usize);
-    if ls != expected {
-        return Err(StereoError::FrameSize { expected, got: ls });
-    }
-    for (side, f) in [(Side::Left, left), (Side::Right, right)] {
-        let status = classify_frame(f);
-        if status != FrameStatus::Ok {
-            return Err(StereoError::Frame { side, status });
-        }
-    }
-    Ok([left, right])
 }
 
 /// Rows `y0..y1` of the working-size output into `out` (`(y1 - y0) * width`, row-major).
