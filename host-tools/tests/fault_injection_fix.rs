@@ -25,52 +25,14 @@ use orbfix::fix::{self, FixConfig, FixError, FixReport, FixScratch, FixStatus, S
 use orbfix::map_product::{CrcCheck, MapProduct};
 use orbfix::nn::model::SHIPPED_WEIGHTS;
 use orbfix_host::eval::pipeline::Reprojection;
-use orbfix_host::eval::pipeline::{map_region, observe_raw, Observation, PipelineOptions};
 use orbfix_host::fix::OwnedScratch;
-use orbfix_host::fix::{build_map_product, MapProductOptions};
-use orbfix_host::render::Sun;
-use orbfix_host::world::{zones, World};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-struct Stop {
-    obs: Observation,
-    product: Vec<u8>,
-    prior: (f32, f32),
-}
-
-/// A stop in the test zone of world 4 with a 120 m map around a prior 17 m off (the stop of
-/// tests/fix_pipeline.rs).
-fn stop(reprojection: Reprojection) -> Stop {
-    let world = World::new(4);
-    let z = zones::zone(zones::Split::Test);
-    let truth = (z.x_min_m + 300.0, z.y_min_m + 420.0);
-    let prior = (truth.0 + 12.0, truth.1 - 12.0);
-    let opts = PipelineOptions {
-        reprojection,
-        map_px: 480,
-        ..PipelineOptions::default()
-    };
-    let obs = observe_raw(&world, truth.0, truth.1, 63.0, Sun::default(), &opts).unwrap();
-    let map = map_region(
-        &world,
-        prior.0,
-        prior.1,
-        480,
-        0.25,
-        Sun::default(),
-        &opts.render,
-    )
-    .unwrap();
-    let product = build_map_product(&map, SHIPPED_WEIGHTS, &MapProductOptions::default()).unwrap();
-    Stop {
-        obs,
-        product,
-        prior: (prior.0 as f32, prior.1 as f32),
-    }
-}
+mod common;
+use common::{stop, Stop};
 
 /// Owned scratch of one fix, exactly as long as `fix_buffer_sizes` says.
 fn bufs_for(s: &Stop, cfg: &FixConfig) -> OwnedScratch {
@@ -151,8 +113,8 @@ fn run_fix(
     clock: &mut Injector,
 ) -> Outcome {
     let mut pose = s.obs.pose;
-    pose.x_m = s.prior.0;
-    pose.y_m = s.prior.1;
+    pose.x_m = s.prior.0 as f32;
+    pose.y_m = s.prior.1 as f32;
     let frames = s.obs.frames().unwrap();
     let mut dviews = [None; 4];
     if let Some(ds) = &s.obs.depths {

@@ -4,56 +4,12 @@
 
 use orbfix::fix::{FixConfig, FixPath, FixStatus, RefineMode};
 use orbfix::map_product::{CrcCheck, MapProduct};
-use orbfix_host::eval::pipeline::{map_region, observe_raw, PipelineOptions, Reprojection};
-use orbfix_host::eval::MapRegion;
-use orbfix_host::fix::{build_map_product, FixRunner, MapProductOptions};
-use orbfix_host::render::Sun;
-use orbfix_host::world::{zones, World};
+use orbfix_host::eval::pipeline::Reprojection;
+use orbfix_host::fix::{FixRunner, MapProductOptions};
+use orbfix_host::world::World;
 
-struct Stop {
-    obs: orbfix_host::eval::pipeline::Observation,
-    map: MapRegion,
-    product: Vec<u8>,
-    truth: (f64, f64),
-    prior: (f64, f64),
-}
-
-/// A stop in the test zone of world 4 with a 120 m map around a prior 17 m off.
-fn stop(reprojection: Reprojection) -> Stop {
-    let world = World::new(4);
-    let z = zones::zone(zones::Split::Test);
-    let truth = (z.x_min_m + 300.0, z.y_min_m + 420.0);
-    let prior = (truth.0 + 12.0, truth.1 - 12.0);
-    let opts = PipelineOptions {
-        reprojection,
-        map_px: 480,
-        ..PipelineOptions::default()
-    };
-    let obs = observe_raw(&world, truth.0, truth.1, 63.0, Sun::default(), &opts).unwrap();
-    let map = map_region(
-        &world,
-        prior.0,
-        prior.1,
-        480,
-        0.25,
-        Sun::default(),
-        &opts.render,
-    )
-    .unwrap();
-    let product = build_map_product(
-        &map,
-        orbfix::nn::model::SHIPPED_WEIGHTS,
-        &MapProductOptions::default(),
-    )
-    .unwrap();
-    Stop {
-        obs,
-        map,
-        product,
-        truth,
-        prior,
-    }
-}
+mod common;
+use common::{stop, Stop};
 
 fn run(s: &Stop, cfg: FixConfig) -> orbfix_host::fix::FixOutcome {
     let mut pose = s.obs.pose;

@@ -7,60 +7,18 @@ use orbfix::image::ImageView;
 use orbfix::map_product::{CrcCheck, MapProduct};
 use orbfix::reproject::FrameStatus;
 use orbfix::stereo::{Side, StereoError};
-use orbfix_host::eval::pipeline::{
-    map_region, observe_raw, Observation, PipelineOptions, Reprojection,
-};
+use orbfix_host::eval::pipeline::Reprojection;
 use orbfix_host::fix::OwnedScratch;
-use orbfix_host::fix::{build_map_product, FixDepth, FixOutcome, FixRunner, MapProductOptions};
-use orbfix_host::render::Sun;
-use orbfix_host::world::{zones, World};
+use orbfix_host::fix::{FixDepth, FixOutcome, FixRunner};
 use std::sync::OnceLock;
 
-struct Stop {
-    obs: Observation,
-    product: Vec<u8>,
-    truth: (f64, f64),
-    prior: (f64, f64),
-}
+mod common;
+use common::Stop;
 
-/// A stop in the test zone of world 4 (stereo pairs rendered) with a 120 m map around a
-/// prior 17 m off; rendered once for every test.
+/// The stop of [`common::stop`] with stereo pairs rendered, once for every test.
 fn stop() -> &'static Stop {
     static STOP: OnceLock<Stop> = OnceLock::new();
-    STOP.get_or_init(|| {
-        let world = World::new(4);
-        let z = zones::zone(zones::Split::Test);
-        let truth = (z.x_min_m + 300.0, z.y_min_m + 420.0);
-        let prior = (truth.0 + 12.0, truth.1 - 12.0);
-        let opts = PipelineOptions {
-            reprojection: Reprojection::Stereo,
-            map_px: 480,
-            ..PipelineOptions::default()
-        };
-        let obs = observe_raw(&world, truth.0, truth.1, 63.0, Sun::default(), &opts).unwrap();
-        let map = map_region(
-            &world,
-            prior.0,
-            prior.1,
-            480,
-            0.25,
-            Sun::default(),
-            &opts.render,
-        )
-        .unwrap();
-        let product = build_map_product(
-            &map,
-            orbfix::nn::model::SHIPPED_WEIGHTS,
-            &MapProductOptions::default(),
-        )
-        .unwrap();
-        Stop {
-            obs,
-            product,
-            truth,
-            prior,
-        }
-    })
+    STOP.get_or_init(|| common::stop(Reprojection::Stereo))
 }
 
 fn pose(s: &Stop) -> orbfix::camera::RoverPose {
