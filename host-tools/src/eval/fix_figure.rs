@@ -2,10 +2,11 @@
 //! a heat map and its colour scale, the searched region, the prior, the truth, the fix with
 //! its stated error bound, the other candidates, axes in metres and a legend.
 
+use super::overlay::response_over_map;
 use super::{Localization, MapRegion};
 use anyhow::Context;
 use base64::Engine;
-use image::{Rgb, RgbImage};
+use image::RgbImage;
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
 
@@ -23,9 +24,6 @@ fn heat_raster(
     top_n: usize,
     scale: usize,
 ) -> (RgbImage, f32, f32) {
-    let s = scale.max(1);
-    let (w, h) = ((map.width / s) as u32, (map.height / s) as u32);
-    let g = loc.fix.coarse_grid;
     let resp = &loc.coarse_response;
     let mut sorted: Vec<f32> = resp.iter().copied().filter(|v| v.is_finite()).collect();
     sorted.sort_by(f32::total_cmp);
@@ -35,30 +33,12 @@ fn heat_raster(
         .copied()
         .unwrap_or(0.0);
     let span = (hi - lo).max(1e-6);
-    let half = top_n as f64 / 2.0;
-    let img = RgbImage::from_fn(w, h, |x, y| {
-        let (mx, my) = (
-            (x as usize * s) as f64 + 0.5 * s as f64,
-            (y as usize * s) as f64 + 0.5 * s as f64,
-        );
-        let v = map.image
-            [(my as usize).min(map.height - 1) * map.width + (mx as usize).min(map.width - 1)]
-            as f32;
-        let mut px = [v, v, v];
-        let c = ((mx - half) / g.step() as f64).round();
-        let r = ((my - half) / g.step() as f64).round();
-        if c >= 0.0 && r >= 0.0 && (c as usize) < g.cols() && (r as usize) < g.rows() {
-            let val = resp[r as usize * g.cols() + c as usize];
-            if val >= lo {
-                let t = (val - lo) / span;
-                let col = viridis(t);
-                let a = 0.2 + 0.6 * t;
-                for (p, c) in px.iter_mut().zip([col.0, col.1, col.2]) {
-                    *p = *p * (1.0 - a) + c as f32 * a;
-                }
-            }
-        }
-        Rgb(px.map(|v| v.round().clamp(0.0, 255.0) as u8))
+    let img = response_over_map(map, loc, top_n, scale, |val| {
+        (val >= lo).then(|| {
+            let t = (val - lo) / span;
+            let col = viridis(t);
+            ([col.0 as f32, col.1 as f32, col.2 as f32], 0.2 + 0.6 * t)
+        })
     });
     (img, lo, hi)
 }

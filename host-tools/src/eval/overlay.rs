@@ -93,6 +93,44 @@ fn heat(t: f32) -> ([f32; 3], f32) {
     (rgb, 0.7 * t.sqrt())
 }
 
+/// The map, downsized `scale` times (each picture pixel the map pixel at its centre), with
+/// the coarse response of `loc` blended in: each pixel takes the response cell whose rover
+/// position (window centre, `top_n / 2` pixels in) is nearest, and `tint` gives that value's
+/// colour (0..255 per channel) and opacity (0..1), or `None` to leave the map as it is.
+pub(crate) fn response_over_map(
+    map: &MapRegion,
+    loc: &Localization,
+    top_n: usize,
+    scale: usize,
+    tint: impl Fn(f32) -> Option<([f32; 3], f32)>,
+) -> RgbImage {
+    let s = scale.max(1);
+    let (w, h) = ((map.width / s) as u32, (map.height / s) as u32);
+    let g = loc.fix.coarse_grid;
+    let resp = &loc.coarse_response;
+    let half = top_n as f64 / 2.0;
+    RgbImage::from_fn(w, h, |x, y| {
+        let (mx, my) = (
+            (x as usize * s) as f64 + 0.5 * s as f64,
+            (y as usize * s) as f64 + 0.5 * s as f64,
+        );
+        let v = map.image
+            [(my as usize).min(map.height - 1) * map.width + (mx as usize).min(map.width - 1)]
+            as f32;
+        let mut px = [v, v, v];
+        let c = ((mx - half) / g.step() as f64).round();
+        let r = ((my - half) / g.step() as f64).round();
+        if c >= 0.0 && r >= 0.0 && (c as usize) < g.cols() && (r as usize) < g.rows() {
+            if let Some((col, a)) = tint(resp[r as usize * g.cols() + c as usize]) {
+                for (p, c) in px.iter_mut().zip(col) {
+                    *p = *p * (1.0 - a) + c * a;
+                }
+            }
+        }
+        Rgb(px.map(|v| v.round().clamp(0.0, 255.0) as u8))
+    })
+}
+
 /// The map with the coarse response as a heat overlay and the markers of the legend.
 /// `scale` downsizes the picture (1 = one pixel per map pixel).
 pub fn map_picture(
@@ -104,10 +142,8 @@ pub fn map_picture(
     scale: usize,
 ) -> RgbImage {
     let s = scale.max(1);
-    let (w, h) = ((map.width / s) as u32, (map.height / s) as u32);
-    let g = loc.fix.coarse_grid;
-    let resp = &loc.coarse_response;
-    let (lo, hi) = resp
+    let (lo, hi) = loc
+        .coarse_response
         .iter()
         .filter(|v| v.is_finite())
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
@@ -115,27 +151,7 @@ pub fn map_picture(
         });
     let span = (hi - lo).max(1e-9);
     let half = top_n as f64 / 2.0;
-    let mut img = RgbImage::from_fn(w, h, |x, y| {
-        let (mx, my) = (
-            (x as usize * s) as f64 + 0.5 * s as f64,
-            (y as usize * s) as f64 + 0.5 * s as f64,
-        );
-        let v = map.image
-            [(my as usize).min(map.height - 1) * map.width + (mx as usize).min(map.width - 1)]
-            as f32;
-        let mut px = [v, v, v];
-        // Response cell whose rover position is nearest.
-        let c = ((mx - half) / g.step() as f64).round();
-        let r = ((my - half) / g.step() as f64).round();
-        if c >= 0.0 && r >= 0.0 && (c as usize) < g.cols() && (r as usize) < g.rows() {
-            let val = resp[r as usize * g.cols() + c as usize];
-            let (col, a) = heat((val - lo) / span);
-            for k in 0..3 {
-                px[k] = px[k] * (1.0 - a) + col[k] * a;
-            }
-        }
-        Rgb(px.map(|v| v.round().clamp(0.0, 255.0) as u8))
-    });
+    let mut img = response_over_map(map, loc, top_n, s, |val| Some(heat((val - lo) / span)));
     let to_px = |x: f64, y: f64| {
         let (c, r) = map.geo.to_pixel(x as f32, y as f32);
         (c as f64 / s as f64, r as f64 / s as f64)
