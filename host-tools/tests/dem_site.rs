@@ -4,13 +4,16 @@
 //! places two stops within 1 m. Small enough for CI (a 160 m site, a 100 m map).
 
 use orbfix::fix::{FixConfig, FixPath, FixStatus};
-use orbfix_host::eval::pipeline::{map_region, observe_raw, PipelineOptions, Reprojection};
-use orbfix_host::fix::{build_map_product, FixRunner, MapProductOptions};
+use orbfix_host::eval::pipeline::{map_region, PipelineOptions, Reprojection};
+use orbfix_host::fix::FixRunner;
 use orbfix_host::geotiff::{write_dem_f32, write_ortho_u8, Georeference};
 use orbfix_host::render::{RenderOptions, Sun};
 use orbfix_host::world::dem::MapSource;
 use orbfix_host::world::World;
 use rand::{Rng, SeedableRng};
+
+mod common;
+use common::{stop_on, Stop};
 
 /// Site: 160 x 160 m, north-west corner (1000, 2160) m; DEM at 0.5 m, orthoimage at 0.25 m.
 const WEST: f64 = 1000.0;
@@ -192,23 +195,7 @@ fn dem_site_map_is_the_orthoimage_and_the_fix_finds_two_stops() {
         ((1092.0, 2072.0), (1080.0, 2085.0), 250.0),
     ];
     for (truth, prior, heading) in stops {
-        let obs = observe_raw(&world, truth.0, truth.1, heading, Sun::default(), &opts).unwrap();
-        let map = map_region(
-            &world,
-            prior.0,
-            prior.1,
-            400,
-            0.25,
-            Sun::default(),
-            &opts.render,
-        )
-        .unwrap();
-        let product = build_map_product(
-            &map,
-            orbfix::nn::model::SHIPPED_WEIGHTS,
-            &MapProductOptions::default(),
-        )
-        .unwrap();
+        let Stop { obs, product, .. } = stop_on(&world, truth, prior, heading, &opts);
         let mut pose = obs.pose;
         pose.x_m = prior.0 as f32;
         pose.y_m = prior.1 as f32;

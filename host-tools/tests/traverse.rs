@@ -3,11 +3,13 @@
 //! fixes and resumes to the same state, and the heading search recovers a heading error.
 
 use orbfix::fix::{FixConfig, HeadingSearch, MAX_HEADINGS};
-use orbfix_host::eval::pipeline::{map_region, observe_raw, PipelineOptions, Reprojection};
-use orbfix_host::fix::{build_map_product, FixRunner, MapProductOptions};
-use orbfix_host::render::Sun;
+use orbfix_host::eval::pipeline::{PipelineOptions, Reprojection};
+use orbfix_host::fix::FixRunner;
 use orbfix_host::traverse::{plan, summarize, Traverse, TraverseOptions};
 use orbfix_host::world::{zones, World};
+
+mod common;
+use common::{stop_on, Stop};
 
 #[test]
 fn the_plan_keeps_its_legs_and_zone_and_the_odometry_drifts() {
@@ -105,27 +107,15 @@ fn the_heading_search_recovers_a_heading_error() {
     let z = zones::zone(zones::Split::Test);
     let truth = (z.x_min_m + 300.0, z.y_min_m + 420.0);
     let heading = 63.0;
-    let opts = PipelineOptions::default();
-    let obs = observe_raw(&world, truth.0, truth.1, heading, Sun::default(), &opts).unwrap();
-    let map = map_region(
-        &world,
-        truth.0 + 3.0,
-        truth.1 - 2.0,
-        400,
-        0.25,
-        Sun::default(),
-        &opts.render,
-    )
-    .unwrap();
-    let product = build_map_product(
-        &map,
-        orbfix::nn::model::SHIPPED_WEIGHTS,
-        &MapProductOptions::default(),
-    )
-    .unwrap();
+    let opts = PipelineOptions {
+        map_px: 400,
+        ..PipelineOptions::default()
+    };
+    let prior = (truth.0 + 3.0, truth.1 - 2.0);
+    let Stop { obs, product, .. } = stop_on(&world, truth, prior, heading, &opts);
     let mut pose = obs.pose;
-    pose.x_m = (truth.0 + 3.0) as f32;
-    pose.y_m = (truth.1 - 2.0) as f32;
+    pose.x_m = prior.0 as f32;
+    pose.y_m = prior.1 as f32;
     pose.heading_deg = (heading + 3.0) as f32;
     let runner = FixRunner::shipped(FixConfig::default());
     let search = HeadingSearch::new(4, 1.0).unwrap();

@@ -22,11 +22,10 @@ pub struct Stop {
     pub prior: (f64, f64),
 }
 
-/// A stop in the test zone of world 4 (heading 63 deg, default sun) with a 120 m map
-/// (480 px at 0.25 m) around a prior 17 m off the truth, observed through `reprojection`
-/// (stereo pairs rendered for [`Reprojection::Stereo`]).
+/// A stop in the test zone of world 4 (heading 63 deg) with a 120 m map (480 px) around a
+/// prior 17 m off the truth, observed through `reprojection` (stereo pairs rendered for
+/// [`Reprojection::Stereo`]).
 pub fn stop(reprojection: Reprojection) -> Stop {
-    let world = World::new(4);
     let z = zones::zone(zones::Split::Test);
     let truth = (z.x_min_m + 300.0, z.y_min_m + 420.0);
     let prior = (truth.0 + 12.0, truth.1 - 12.0);
@@ -35,12 +34,24 @@ pub fn stop(reprojection: Reprojection) -> Stop {
         map_px: 480,
         ..PipelineOptions::default()
     };
-    let obs = observe_raw(&world, truth.0, truth.1, 63.0, Sun::default(), &opts).unwrap();
+    stop_on(&World::new(4), truth, prior, 63.0, &opts)
+}
+
+/// A stop on `world` at `truth` (heading `heading_deg`, default sun) with a map of
+/// `opts.map_px` pixels at 0.25 m around `prior`, observed as `opts` says.
+pub fn stop_on(
+    world: &World,
+    truth: (f64, f64),
+    prior: (f64, f64),
+    heading_deg: f64,
+    opts: &PipelineOptions,
+) -> Stop {
+    let obs = observe_raw(world, truth.0, truth.1, heading_deg, Sun::default(), opts).unwrap();
     let map = map_region(
-        &world,
+        world,
         prior.0,
         prior.1,
-        480,
+        opts.map_px,
         0.25,
         Sun::default(),
         &opts.render,
