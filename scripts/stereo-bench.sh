@@ -5,7 +5,7 @@
 # OpenCV lives in a venv under .cache/ (opencv-python-headless from PyPI), never in the core.
 #   bash scripts/stereo-bench.sh [--locations N] [--seed S] [other `orbfix bench stereo` options]
 #   bash scripts/stereo-bench.sh --seeds "2 3 4 10 11 12 13 14 15" [--locations N] [options]
-# With --seeds (first), one set per world seed: a line per seed (its core / SGBM bad-pixel
+# With --seeds (first), one set per world seed: a line per set (its core / SGBM bad-pixel
 # ratio), then the tables over all the seeds' pairs pooled.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -31,8 +31,6 @@ cargo build --release -q -p orbfix-host
 SETS=()
 for s in $SEEDS; do
   target/release/orbfix bench stereo --seed "$s" --out "$OUT/seed-$s" "$@" > /dev/null
-  echo "seed $s: $("$VENV/bin/python" scripts/stereo_bench.py --set "$OUT/seed-$s" | tail -n 1)"
   SETS+=("$OUT/seed-$s")
 done
-echo
 "$VENV/bin/python" scripts/stereo_bench.py --set "${SETS[@]}" --json "$OUT/table.json" --by-depth

@@ -89,8 +89,9 @@ def main():
     if args.gradient_refine:
         try:
             refine = [int(v) for v in args.gradient_refine.split(",")]
-            assert len(refine) == 3 and min(refine) >= 0
-        except (ValueError, AssertionError):
+        except ValueError:
+            refine = []
+        if len(refine) != 3 or min(refine) < 0:
             sys.exit(f"--gradient-refine wants RX,RY,IT (three integers >= 0), got {args.gradient_refine!r}")
     indices = []
     for folder in args.set:
@@ -128,6 +129,8 @@ def main():
         refined_name = f"core + gradient fit {2 * refine[0] + 1} x {2 * refine[1] + 1}, {refine[2]} steps"
         methods.append(refined_name)
     acc = {m: dict(n=0, cover=0, bad1=0, bad3=0, abs=0.0, secs=0.0) for m in methods}
+    # Per set (pooled runs): estimates and those off by more than 1 px, core and SGBM.
+    per_set = {folder: {m: [0, 0] for m in methods[:2]} for folder, _ in indices}
     bands = [(0, 5), (5, 10), (10, 16), (16, 24), (24, 32)]
     by_depth = {m: {b: dict(n=0, cover=0, good=0, abs=0.0, bias=0.0) for b in bands} for m in methods}
     fb = ix["focal_px"] * ix["baseline_m"]
@@ -159,6 +162,9 @@ def main():
             err = np.abs(d[valid] - truth[valid])
             a["cover"] += int(valid.sum())
             a["bad1"] += int((err > 1).sum())
+            if name in per_set[folder]:
+                per_set[folder][name][0] += int(valid.sum())
+                per_set[folder][name][1] += int((err > 1).sum())
             a["bad3"] += int((err > 3).sum())
             a["abs"] += float(err.sum())
             a["secs"] += secs
@@ -180,6 +186,14 @@ def main():
         rows.append(dict(method=m, coverage=a["cover"] / max(a["n"], 1), bad1=a["bad1"] / c,
                          bad3=a["bad3"] / c, mae=a["abs"] / c, ms_per_view=1e3 * a["secs"] / nviews,
                          good_of_all=(a["cover"] - a["bad1"]) / max(a["n"], 1)))
+    if len(indices) > 1:
+        for folder, counts in per_set.items():
+            (cc, cb), (sc, sb) = counts.values()
+            rate = lambda bad, cover: bad / max(cover, 1)
+            r = rate(cb, cc) / rate(sb, sc) if sb > 0 else float("inf")
+            print(f"{folder}: core bad > 1 px {100 * rate(cb, cc):.2f} %, SGBM {100 * rate(sb, sc):.2f} %, "
+                  f"ratio {r:.2f}")
+        print()
     w, h = ix["size"]
     sets = f" from {len(indices)} sets" if len(indices) > 1 else ""
     print(f"{nviews} pairs{sets}, {w} x {h} (rendered {ix['render_size'][0]} x {ix['render_size'][1]}, "
